@@ -1,0 +1,333 @@
+// File I/O and grid transfer for activeskin's OpenVDB bridge (see src/vdb/ffi.rs).
+#include "activeskin/cpp/vdb_impl.h"
+
+#include <openvdb/io/File.h>
+#include <openvdb/tools/LevelSetSphere.h>
+#include <openvdb/tools/Prune.h>
+
+#include <cstring>
+#include <mutex>
+#include <sstream>
+
+#include "activeskin/src/vdb/ffi.rs.h"
+
+namespace activeskin {
+namespace bridge {
+
+using openvdb::Coord;
+using openvdb::FloatTree;
+using LeafT = FloatTree::LeafNodeType;
+constexpr size_t kLeafVoxels = LeafT::SIZE;           // 512
+constexpr size_t kMaskWords = LeafT::NodeMaskType::WORD_COUNT;  // 8
+
+void ensure_initialized() {
+  static std::once_flag once;
+  std::call_once(once, [] { openvdb::initialize(); });
+}
+
+std::unique_ptr<FloatGrid> wrap(openvdb::FloatGrid::Ptr grid) {
+  auto impl = std::make_unique<FloatGrid::Impl>();
+  impl->grid = std::move(grid);
+  return std::make_unique<FloatGrid>(std::move(impl));
+}
+
+FloatGrid::FloatGrid(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+FloatGrid::~FloatGrid() = default;
+
+namespace {
+
+GridClass to_class(openvdb::GridClass c) {
+  switch (c) {
+    case openvdb::GRID_LEVEL_SET: return GridClass::LevelSet;
+    case openvdb::GRID_FOG_VOLUME: return GridClass::FogVolume;
+    case openvdb::GRID_STAGGERED: return GridClass::Staggered;
+    default: return GridClass::Unknown;
+  }
+}
+
+openvdb::GridClass from_class(GridClass c) {
+  switch (c) {
+    case GridClass::LevelSet: return openvdb::GRID_LEVEL_SET;
+    case GridClass::FogVolume: return openvdb::GRID_FOG_VOLUME;
+    case GridClass::Staggered: return openvdb::GRID_STAGGERED;
+    default: return openvdb::GRID_UNKNOWN;
+  }
+}
+
+bool is_uniform_linear(const openvdb::math::Transform &xf) {
+  return xf.isLinear() && xf.hasUniformScale();
+}
+
+// Opens without delayed loading: nothing stays memory-mapped, so the file can be
+// overwritten while its grids are alive.
+std::unique_ptr<openvdb::io::File> open_file(rust::Str path) {
+  ensure_initialized();
+  auto file = std::make_unique<openvdb::io::File>(std::string(path));
+  file->open(/*delayLoad=*/false);
+  return file;
+}
+
+// A pure uniform scale plus translation is built the way OpenVDB builds its own, so the
+// voxel size reads back bit for bit. (A Transform constructed from a map "simplifies" it
+// and recovers the scale as (d + t) - t, which loses the last bit.)
+openvdb::math::Transform::Ptr make_transform(const openvdb::Mat4d &m) {
+  const double d = m(0, 0);
+  const bool scale_translate = m(1, 1) == d && m(2, 2) == d && m(0, 1) == 0 && m(0, 2) == 0 &&
+                               m(1, 0) == 0 && m(1, 2) == 0 && m(2, 0) == 0 && m(2, 1) == 0;
+  if (!scale_translate) return openvdb::math::Transform::createLinearTransform(m);
+  auto xf = openvdb::math::Transform::createLinearTransform(d);
+  xf->postTranslate(openvdb::Vec3d(m(3, 0), m(3, 1), m(3, 2)));
+  return xf;
+}
+
+bool same_bits(float a, float b) { return std::memcmp(&a, &b, sizeof(float)) == 0; }
+
+std::array<double, 3> to_array(const openvdb::Vec3d &v) { return {v[0], v[1], v[2]}; }
+
+}  // namespace
+
+rust::Vec<GridSummary> list_grids(rust::Str path) {
+  auto file = open_file(path);
+  openvdb::GridPtrVecPtr grids = file->getGrids();
+  file->close();
+  rust::Vec<GridSummary> out;
+  for (const auto &grid : *grids) {
+    GridSummary s;
+    s.name = grid->getName();
+    s.value_type = grid->valueType();
+    s.grid_class = to_class(grid->getGridClass());
+    const auto &xf = grid->transform();
+    s.voxel_size = to_array(xf.voxelSize());
+    s.uniform_linear = is_uniform_linear(xf);
+    s.active_voxels = grid->activeVoxelCount();
+    const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
+    s.has_bbox = s.active_voxels > 0 && !box.empty();
+    s.bbox_min = {0, 0, 0};
+    s.bbox_max = {0, 0, 0};
+    if (s.has_bbox) {
+      const openvdb::BBoxd world = xf.indexToWorld(box);
+      s.bbox_min = to_array(world.min());
+      s.bbox_max = to_array(world.max());
+    }
+    std::ostringstream bg;
+    const bool known = grid->apply<openvdb::GridTypes>(
+        [&bg](const auto &typed) { bg << typed.background(); });
+    s.background = known ? bg.str() : "?";
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+std::unique_ptr<FloatGrid> read_float_grid(rust::Str path, rust::Str name) {
+  auto file = open_file(path);
+  std::string wanted(name);
+  std::string found_types;
+  openvdb::GridPtrVecPtr metas = file->readAllGridMetadata();
+  for (const auto &meta : *metas) {
+    const bool name_ok = wanted.empty() || meta->getName() == wanted;
+    if (!name_ok) continue;
+    if (meta->valueType() != "float") {
+      if (!wanted.empty()) {
+        throw openvdb::TypeError("grid '" + wanted + "' holds " + meta->valueType() +
+                                 " values, not float");
+      }
+      continue;
+    }
+    openvdb::GridBase::Ptr base = file->readGrid(meta->getName());
+    file->close();
+    auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
+    if (!grid) throw openvdb::TypeError("grid '" + meta->getName() + "' is not a float grid");
+    return wrap(grid);
+  }
+  std::string listing;
+  for (const auto &meta : *metas) {
+    if (!listing.empty()) listing += ", ";
+    listing += "'" + meta->getName() + "' (" + meta->valueType() + ")";
+  }
+  if (listing.empty()) listing = "none";
+  if (!wanted.empty()) {
+    throw openvdb::LookupError("no grid named '" + wanted + "' (grids: " + listing + ")");
+  }
+  throw openvdb::LookupError("no float grid (grids: " + listing + ")");
+}
+
+GridHeader FloatGrid::header() const {
+  const auto &grid = *impl_->grid;
+  GridHeader h;
+  h.name = grid.getName();
+  h.grid_class = to_class(grid.getGridClass());
+  h.background = grid.background();
+  const auto &xf = grid.transform();
+  h.uniform_linear = is_uniform_linear(xf);
+  h.matrix.fill(0.0);
+  if (xf.isLinear()) {
+    const openvdb::Mat4d m = xf.baseMap()->getAffineMap()->getMat4();
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) h.matrix[r * 4 + c] = m(r, c);
+  }
+  h.leaf_count = grid.tree().leafCount();
+  return h;
+}
+
+uint64_t FloatGrid::active_voxel_count() const { return impl_->grid->activeVoxelCount(); }
+
+void FloatGrid::copy_leaves(rust::Slice<int32_t> origins, rust::Slice<float> values,
+                            rust::Slice<uint64_t> masks) const {
+  const auto &tree = impl_->grid->tree();
+  const size_t n = tree.leafCount();
+  if (origins.size() != 3 * n || values.size() != kLeafVoxels * n ||
+      masks.size() != kMaskWords * n) {
+    throw openvdb::ValueError("copy_leaves: buffer sizes do not match the leaf count");
+  }
+  size_t i = 0;
+  for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf, ++i) {
+    const Coord o = leaf->origin();
+    origins[3 * i + 0] = o.x();
+    origins[3 * i + 1] = o.y();
+    origins[3 * i + 2] = o.z();
+    std::memcpy(values.data() + kLeafVoxels * i, leaf->buffer().data(),
+                kLeafVoxels * sizeof(float));
+    const auto &mask = leaf->getValueMask();
+    for (size_t w = 0; w < kMaskWords; ++w)
+      masks[kMaskWords * i + w] = mask.template getWord<uint64_t>(w);
+  }
+}
+
+rust::Vec<Tile> FloatGrid::tiles() const {
+  const auto &tree = impl_->grid->tree();
+  const float background = tree.background();
+  rust::Vec<Tile> out;
+  // Inactive background tiles are what an empty slot means anyway: leave them out.
+  auto push = [&](const Coord &c, uint32_t dim, float value, bool active) {
+    if (!active && same_bits(value, background)) return;
+    out.push_back(Tile{{c.x(), c.y(), c.z()}, dim, value, active});
+  };
+  const auto &root = tree.root();
+  using Int2 = FloatTree::RootNodeType::ChildNodeType;
+  using Int1 = Int2::ChildNodeType;
+  for (auto t = root.cbeginValueAll(); t; ++t) push(t.getCoord(), Int2::DIM, *t, t.isValueOn());
+  for (auto n2 = root.cbeginChildOn(); n2; ++n2) {
+    for (auto t = n2->cbeginValueAll(); t; ++t) push(t.getCoord(), Int1::DIM, *t, t.isValueOn());
+    for (auto n1 = n2->cbeginChildOn(); n1; ++n1) {
+      for (auto t = n1->cbeginValueAll(); t; ++t)
+        push(t.getCoord(), LeafT::DIM, *t, t.isValueOn());
+    }
+  }
+  return out;
+}
+
+void FloatGrid::prune_level_set() { openvdb::tools::pruneLevelSet(impl_->grid->tree()); }
+
+std::unique_ptr<FloatGrid> new_float_grid(const GridHeader &header,
+                                          rust::Slice<const int32_t> origins,
+                                          rust::Slice<const float> values,
+                                          rust::Slice<const uint64_t> masks,
+                                          rust::Slice<const Tile> tiles) {
+  ensure_initialized();
+  const size_t n = origins.size() / 3;
+  if (origins.size() % 3 != 0 || values.size() != kLeafVoxels * n ||
+      masks.size() != kMaskWords * n) {
+    throw openvdb::ValueError("leaf arrays disagree: " + std::to_string(origins.size()) +
+                              " origin coordinates, " + std::to_string(values.size()) +
+                              " values, " + std::to_string(masks.size()) + " mask words");
+  }
+  const auto &m = header.matrix;
+  if (m[3] != 0.0 || m[7] != 0.0 || m[11] != 0.0 || m[15] != 1.0) {
+    throw openvdb::ValueError("transform matrix is not affine");
+  }
+  openvdb::Mat4d mat;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) mat(r, c) = m[r * 4 + c];
+
+  auto grid = openvdb::FloatGrid::create(header.background);
+  grid->setName(std::string(header.name));
+  grid->setGridClass(from_class(header.grid_class));
+  grid->setTransform(make_transform(mat));
+
+  auto &tree = grid->tree();
+  for (const Tile &t : tiles) {
+    openvdb::Index level;
+    switch (t.dim) {
+      case LeafT::DIM: level = 1; break;
+      case FloatTree::RootNodeType::ChildNodeType::ChildNodeType::DIM: level = 2; break;
+      case FloatTree::RootNodeType::ChildNodeType::DIM: level = 3; break;
+      default: throw openvdb::ValueError("tile of unsupported size " + std::to_string(t.dim));
+    }
+    const Coord c(t.origin[0], t.origin[1], t.origin[2]);
+    if ((c.x() | c.y() | c.z()) & int32_t(t.dim - 1)) {
+      throw openvdb::ValueError("tile origin not aligned to its size");
+    }
+    tree.addTile(level, c, t.value, t.active);
+  }
+  for (size_t i = 0; i < n; ++i) {
+    const Coord c(origins[3 * i], origins[3 * i + 1], origins[3 * i + 2]);
+    if ((c.x() | c.y() | c.z()) & int32_t(LeafT::DIM - 1)) {
+      throw openvdb::ValueError("leaf origin not aligned to 8");
+    }
+    auto leaf = std::make_unique<LeafT>(c, header.background, false);
+    std::memcpy(leaf->buffer().data(), values.data() + kLeafVoxels * i,
+                kLeafVoxels * sizeof(float));
+    auto &mask = leaf->getValueMask();
+    for (size_t w = 0; w < kMaskWords; ++w)
+      mask.template getWord<uint64_t>(w) = masks[kMaskWords * i + w];
+    tree.addLeaf(leaf.release());
+  }
+  return wrap(grid);
+}
+
+std::unique_ptr<FloatGrid> make_level_set_sphere(float radius, std::array<float, 3> center,
+                                                 float voxel_size, float half_width) {
+  ensure_initialized();
+  auto grid = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(
+      radius, openvdb::Vec3f(center[0], center[1], center[2]), voxel_size, half_width);
+  grid->setName("surface");
+  return wrap(grid);
+}
+
+// ---- writing ----
+
+struct GridWriter::Impl {
+  openvdb::GridPtrVec grids;
+};
+
+GridWriter::GridWriter() : impl_(std::make_unique<Impl>()) {}
+GridWriter::~GridWriter() = default;
+
+std::unique_ptr<GridWriter> new_grid_writer() {
+  ensure_initialized();
+  return std::make_unique<GridWriter>();
+}
+
+void GridWriter::add(const FloatGrid &grid, bool half_float) {
+  // Shallow copy: shares the tree, but carries its own half-float flag. The transform is
+  // shared too: copying one goes through Transform's lossy constructor.
+  const auto &source = grid.impl().grid;
+  openvdb::FloatGrid::Ptr copy = source->copy();
+  copy->setTransform(openvdb::ConstPtrCast<openvdb::math::Transform>(source->constTransformPtr()));
+  copy->setSaveFloatAsHalf(half_float);
+  impl_->grids.push_back(copy);
+}
+
+void GridWriter::write(rust::Str path, const FileMetadata &metadata) const {
+  openvdb::MetaMap meta;
+  meta.insertMeta("creator", openvdb::StringMetadata(std::string(metadata.creator)));
+  if (metadata.has_frame) {
+    meta.insertMeta("frame", openvdb::Int64Metadata(metadata.frame));
+  }
+  openvdb::io::File file{std::string(path)};
+  file.write(impl_->grids, meta);
+  file.close();
+}
+
+void write_vector_grid_file(rust::Str path) {
+  ensure_initialized();
+  auto grid = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
+  grid->setName("v");
+  grid->tree().setValue(Coord(1, 2, 3), openvdb::Vec3s(1.0f, 2.0f, 3.0f));
+  openvdb::io::File file{std::string(path)};
+  file.write({grid});
+  file.close();
+}
+
+}  // namespace bridge
+}  // namespace activeskin

@@ -1,0 +1,22 @@
+// Private to the bridge's .cc files: what the pimpl handles hold. Rust never sees this.
+#pragma once
+
+#include <openvdb/openvdb.h>
+
+#include "activeskin/cpp/vdb_bridge.h"
+
+namespace activeskin {
+namespace bridge {
+
+struct FloatGrid::Impl {
+  openvdb::FloatGrid::Ptr grid;
+};
+
+// openvdb::initialize() exactly once, from whichever entry point runs first.
+void ensure_initialized();
+
+// Wraps a grid in a handle (the grid is shared, not copied).
+std::unique_ptr<FloatGrid> wrap(openvdb::FloatGrid::Ptr grid);
+
+}  // namespace bridge
+}  // namespace activeskin

@@ -1,0 +1,56 @@
+// OpenVDB tools used to validate activeskin: volumeToMesh, LevelSetMeasure, checkLevelSet.
+// Kept apart from vdb_bridge.cc so the two heavy translation units compile in parallel.
+#include "activeskin/cpp/vdb_impl.h"
+
+#include <openvdb/tools/Diagnostics.h>
+#include <openvdb/tools/LevelSetMeasure.h>
+#include <openvdb/tools/VolumeToMesh.h>
+
+#include "activeskin/src/vdb/ffi.rs.h"
+
+namespace activeskin {
+namespace bridge {
+
+MeshBuffers volume_to_mesh(const FloatGrid &handle, double isovalue, double adaptivity) {
+  std::vector<openvdb::Vec3s> points;
+  std::vector<openvdb::Vec3I> triangles;
+  std::vector<openvdb::Vec4I> quads;
+  openvdb::tools::volumeToMesh(*handle.impl().grid, points, triangles, quads, isovalue,
+                               adaptivity);
+  MeshBuffers out;
+  out.points.reserve(3 * points.size());
+  for (const auto &p : points) {
+    out.points.push_back(p[0]);
+    out.points.push_back(p[1]);
+    out.points.push_back(p[2]);
+  }
+  out.triangles.reserve(3 * triangles.size());
+  for (const auto &t : triangles)
+    for (int k = 0; k < 3; ++k) out.triangles.push_back(t[k]);
+  out.quads.reserve(4 * quads.size());
+  for (const auto &q : quads)
+    for (int k = 0; k < 4; ++k) out.quads.push_back(q[k]);
+  return out;
+}
+
+LevelSetMeasures measure_level_set(const FloatGrid &handle) {
+  const auto &grid = *handle.impl().grid;
+  if (grid.getGridClass() != openvdb::GRID_LEVEL_SET) {
+    throw openvdb::TypeError("LevelSetMeasure needs a grid of class level set");
+  }
+  openvdb::tools::LevelSetMeasure<openvdb::FloatGrid> measure(grid);
+  LevelSetMeasures m;
+  m.area = measure.area(true);
+  m.volume = measure.volume(true);
+  m.mean_curvature = measure.avgMeanCurvature(true);
+  m.euler_characteristic = measure.eulerCharacteristic();
+  m.genus = measure.genus();
+  return m;
+}
+
+rust::String check_level_set(const FloatGrid &handle) {
+  return rust::String(openvdb::tools::checkLevelSet(*handle.impl().grid));
+}
+
+}  // namespace bridge
+}  // namespace activeskin

@@ -1,0 +1,137 @@
+//! The cxx bridge to OpenVDB, alone in this file: editing it recompiles the C++ side.
+//!
+//! Every fallible function returns `Result`, so an OpenVDB exception arrives in Rust as an
+//! `Err` carrying its message (`cpp/vdb_bridge.h` also catches non-standard throws).
+//! Grids cross as opaque handles; voxel data crosses as flat arrays, leaf by leaf.
+
+#[cxx::bridge(namespace = "activeskin::bridge")]
+pub(crate) mod bridge {
+    /// OpenVDB's `GridClass`.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    #[repr(u8)]
+    enum GridClass {
+        Unknown = 0,
+        LevelSet = 1,
+        FogVolume = 2,
+        Staggered = 3,
+    }
+
+    /// One grid of a file, as `activeskin info` reports it.
+    #[derive(Debug, Clone)]
+    struct GridSummary {
+        name: String,
+        value_type: String,
+        grid_class: GridClass,
+        voxel_size: [f64; 3],
+        /// Linear map with one scale on all axes: what activeskin can work in.
+        uniform_linear: bool,
+        active_voxels: u64,
+        /// False when the grid has no active voxel (then the bounding box is meaningless).
+        has_bbox: bool,
+        /// World-space box around the centres of the active voxels.
+        bbox_min: [f64; 3],
+        bbox_max: [f64; 3],
+        /// The background value printed by OpenVDB's `operator<<` for the grid's type.
+        background: String,
+    }
+
+    /// Everything about a float grid except its voxels.
+    #[derive(Debug, Clone)]
+    struct GridHeader {
+        name: String,
+        grid_class: GridClass,
+        background: f32,
+        /// Index-to-world affine matrix, row-major in OpenVDB's row-vector convention
+        /// (world = [i j k 1] · M, translation in the last row).
+        matrix: [f64; 16],
+        uniform_linear: bool,
+        leaf_count: usize,
+    }
+
+    /// A constant region of the tree above leaf level: 8³ (level 1), 128³ (level 2) or
+    /// 4096³ (root) voxels. Inactive tiles are what keep inside and outside apart.
+    #[derive(Debug, Clone, Copy, PartialEq)]
+    struct Tile {
+        origin: [i32; 3],
+        dim: u32,
+        value: f32,
+        active: bool,
+    }
+
+    /// Output of `volumeToMesh`: world points (xyz), triangles and quads (vertex indices).
+    #[derive(Debug, Clone, Default)]
+    struct MeshBuffers {
+        points: Vec<f32>,
+        triangles: Vec<u32>,
+        quads: Vec<u32>,
+    }
+
+    /// OpenVDB's `LevelSetMeasure` in world units.
+    #[derive(Debug, Clone, Copy)]
+    struct LevelSetMeasures {
+        area: f64,
+        volume: f64,
+        /// Average mean curvature over the surface.
+        mean_curvature: f64,
+        euler_characteristic: i32,
+        genus: i32,
+    }
+
+    /// File-level metadata written with the grids.
+    #[derive(Debug, Clone)]
+    struct FileMetadata {
+        creator: String,
+        has_frame: bool,
+        frame: i64,
+    }
+
+    unsafe extern "C++" {
+        include!("activeskin/cpp/vdb_bridge.h");
+
+        /// An OpenVDB `FloatGrid` behind a pimpl handle.
+        type FloatGrid;
+        /// Grids gathered for one file write.
+        type GridWriter;
+
+        fn list_grids(path: &str) -> Result<Vec<GridSummary>>;
+        /// `name` empty: the first grid whose value type is `float`.
+        fn read_float_grid(path: &str, name: &str) -> Result<UniquePtr<FloatGrid>>;
+        fn new_float_grid(
+            header: &GridHeader,
+            origins: &[i32],
+            values: &[f32],
+            masks: &[u64],
+            tiles: &[Tile],
+        ) -> Result<UniquePtr<FloatGrid>>;
+        fn make_level_set_sphere(
+            radius: f32,
+            center: [f32; 3],
+            voxel_size: f32,
+            half_width: f32,
+        ) -> Result<UniquePtr<FloatGrid>>;
+
+        fn header(self: &FloatGrid) -> GridHeader;
+        fn active_voxel_count(self: &FloatGrid) -> u64;
+        fn copy_leaves(
+            self: &FloatGrid,
+            origins: &mut [i32],
+            values: &mut [f32],
+            masks: &mut [u64],
+        ) -> Result<()>;
+        fn tiles(self: &FloatGrid) -> Vec<Tile>;
+        /// `tools::pruneLevelSet`: collapses uniform leaves into inside/outside tiles.
+        fn prune_level_set(self: Pin<&mut FloatGrid>) -> Result<()>;
+
+        /// Writes a file holding one Vec3s grid named `v` (a fixture for error tests).
+        fn write_vector_grid_file(path: &str) -> Result<()>;
+
+        fn new_grid_writer() -> UniquePtr<GridWriter>;
+        fn add(self: Pin<&mut GridWriter>, grid: &FloatGrid, half_float: bool) -> Result<()>;
+        fn write(self: &GridWriter, path: &str, metadata: &FileMetadata) -> Result<()>;
+
+        fn volume_to_mesh(grid: &FloatGrid, isovalue: f64, adaptivity: f64) -> Result<MeshBuffers>;
+        fn measure_level_set(grid: &FloatGrid) -> Result<LevelSetMeasures>;
+        /// `tools::checkLevelSet`: empty when the grid is a valid narrow-band level set.
+        fn check_level_set(grid: &FloatGrid) -> Result<String>;
+    }
+}

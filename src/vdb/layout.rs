@@ -1,0 +1,298 @@
+//! A structural check of a VDB file, done in Rust before OpenVDB reads it.
+//!
+//! OpenVDB trusts the counts in a file's header: cut inside the header, it may loop for
+//! minutes on a failed stream or report a file with no grids. Walking the header, the file
+//! metadata and each grid descriptor (whose end offset must lie inside the file) turns every
+//! truncation into a clear error, while reading only a few hundred bytes.
+
+use std::io::{Read, Seek, SeekFrom};
+
+/// `OPENVDB_MAGIC` as the 8 little-endian bytes every VDB file starts with.
+pub const MAGIC: [u8; 8] = [0x20, 0x42, 0x44, 0x56, 0, 0, 0, 0];
+
+// File format versions at which the header changed (openvdb/version.h).
+const VERSION_LIBRARY_NUMBERS: u32 = 211;
+const VERSION_GRID_OFFSETS_FLAG: u32 = 212;
+const VERSION_INSTANCING: u32 = 216;
+const VERSION_UUID_AS_TEXT: u32 = 218;
+const VERSION_SELECTIVE_COMPRESSION: u32 = 220;
+const VERSION_PER_GRID_COMPRESSION: u32 = 222;
+
+/// Far more than any real file holds; a larger count means a corrupt header.
+const MAX_COUNT: u32 = 1 << 20;
+
+/// What the walk found: enough to describe the file, nothing OpenVDB needs.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Layout {
+    pub version: u32,
+    /// Whether grid descriptors carry offsets (then `grids` lists them all).
+    pub has_offsets: bool,
+    /// `(name, type)` of each grid descriptor, when the file records grid offsets.
+    pub grids: Vec<(String, String)>,
+}
+
+impl Layout {
+    /// `grids: 'a' (Tree_float_5_4_3), ...` for error messages.
+    pub fn describe_grids(&self) -> String {
+        if self.grids.is_empty() {
+            return "the file has no grids".into();
+        }
+        let list: Vec<String> = self
+            .grids
+            .iter()
+            .map(|(name, kind)| format!("'{name}' ({kind})"))
+            .collect();
+        format!("grids: {}", list.join(", "))
+    }
+}
+
+impl Layout {
+    /// The grid to read: `name`, or the first float grid in file order (OpenVDB's own
+    /// lookup goes by sorted name). `Err` explains, listing the grids.
+    pub fn choose_float_grid<'a>(&'a self, name: Option<&'a str>) -> Result<&'a str, String> {
+        let is_float = |kind: &str| kind.starts_with("Tree_float_");
+        match name {
+            Some(n) => match self.grids.iter().find(|(g, _)| g == n) {
+                None => Err(format!("no grid named '{n}' ({})", self.describe_grids())),
+                Some((_, kind)) if !is_float(kind) => {
+                    Err(format!("grid '{n}' is a {kind}, not a float grid"))
+                }
+                Some(_) => Ok(n),
+            },
+            None => self
+                .grids
+                .iter()
+                .find(|(_, kind)| is_float(kind))
+                .map(|(g, _)| g.as_str())
+                .ok_or_else(|| format!("no float grid ({})", self.describe_grids())),
+        }
+    }
+}
+
+struct Walker<R> {
+    reader: R,
+    len: u64,
+    pos: u64,
+}
+
+impl<R: Read + Seek> Walker<R> {
+    fn truncated(&self, what: &str, needed: u64) -> String {
+        format!(
+            "truncated or corrupt VDB file: {what} needs bytes up to {needed} but the file has {}",
+            self.len
+        )
+    }
+
+    fn bytes<const N: usize>(&mut self, what: &str) -> Result<[u8; N], String> {
+        let end = self.pos + N as u64;
+        if end > self.len {
+            return Err(self.truncated(what, end));
+        }
+        let mut buf = [0u8; N];
+        self.reader
+            .read_exact(&mut buf)
+            .map_err(|e| format!("cannot read {what}: {e}"))?;
+        self.pos = end;
+        Ok(buf)
+    }
+
+    fn u32(&mut self, what: &str) -> Result<u32, String> {
+        self.bytes::<4>(what).map(u32::from_le_bytes)
+    }
+
+    fn i64(&mut self, what: &str) -> Result<i64, String> {
+        self.bytes::<8>(what).map(i64::from_le_bytes)
+    }
+
+    fn count(&mut self, what: &str) -> Result<u32, String> {
+        let n = self.u32(what)?;
+        if n > MAX_COUNT {
+            return Err(format!("corrupt VDB file: {what} is {n}"));
+        }
+        Ok(n)
+    }
+
+    fn skip(&mut self, n: u64, what: &str) -> Result<(), String> {
+        let end = self.pos + n;
+        if end > self.len {
+            return Err(self.truncated(what, end));
+        }
+        self.seek(end)
+    }
+
+    fn seek(&mut self, to: u64) -> Result<(), String> {
+        self.reader
+            .seek(SeekFrom::Start(to))
+            .map_err(|e| format!("cannot seek: {e}"))?;
+        self.pos = to;
+        Ok(())
+    }
+
+    fn string(&mut self, what: &str) -> Result<String, String> {
+        let n = u64::from(self.u32(what)?);
+        let end = self.pos + n;
+        if end > self.len {
+            return Err(self.truncated(what, end));
+        }
+        let mut buf = vec![0u8; n as usize];
+        self.reader
+            .read_exact(&mut buf)
+            .map_err(|e| format!("cannot read {what}: {e}"))?;
+        self.pos = end;
+        Ok(String::from_utf8_lossy(&buf).into_owned())
+    }
+}
+
+/// Walks the file's header and grid descriptors; `Err` says what is wrong, on one line.
+pub fn check<R: Read + Seek>(reader: R, len: u64) -> Result<Layout, String> {
+    let mut w = Walker {
+        reader,
+        len,
+        pos: 0,
+    };
+    if len < MAGIC.len() as u64 {
+        return Err(if len == 0 {
+            "empty file, not a VDB file".into()
+        } else {
+            "not a VDB file (too short)".into()
+        });
+    }
+    if w.bytes::<8>("magic number")? != MAGIC {
+        return Err("not a VDB file (no VDB magic number)".into());
+    }
+    let mut version = w.u32("file version")?;
+    if version < VERSION_LIBRARY_NUMBERS {
+        // Before 211 the version was stored as major, minor, patch.
+        let minor = w.u32("file version")?;
+        let patch = w.u32("file version")?;
+        version = 100 * version + 10 * minor + patch;
+    } else {
+        w.u32("library version")?;
+        w.u32("library version")?;
+    }
+    let has_offsets = if version >= VERSION_GRID_OFFSETS_FLAG {
+        w.bytes::<1>("grid offsets flag")?[0] != 0
+    } else {
+        true
+    };
+    if (VERSION_SELECTIVE_COMPRESSION..VERSION_PER_GRID_COMPRESSION).contains(&version) {
+        w.bytes::<1>("compression flag")?;
+    }
+    let uuid_len = if version >= VERSION_UUID_AS_TEXT {
+        36
+    } else {
+        16
+    };
+    w.skip(uuid_len, "file UUID")?;
+
+    let metadata = w.count("file metadata count")?;
+    for _ in 0..metadata {
+        w.string("metadata name")?;
+        w.string("metadata type")?;
+        let size = w.u32("metadata size")?;
+        w.skip(u64::from(size), "metadata value")?;
+    }
+
+    let grid_count = w.count("grid count")?;
+    let mut grids = Vec::with_capacity(grid_count as usize);
+    if !has_offsets {
+        // Grids follow one another with no index to check; OpenVDB reads them in turn.
+        return Ok(Layout {
+            version,
+            has_offsets,
+            grids,
+        });
+    }
+    for _ in 0..grid_count {
+        let name = w.string("grid name")?;
+        let kind = w.string("grid type")?;
+        if version >= VERSION_INSTANCING {
+            w.string("instance parent name")?;
+        }
+        let what = format!("grid '{name}'");
+        let grid_pos = w.i64(&what)?;
+        let block_pos = w.i64(&what)?;
+        let end_pos = w.i64(&what)?;
+        let ordered = (w.pos as i64) <= grid_pos && grid_pos <= block_pos && block_pos <= end_pos;
+        if !ordered {
+            return Err(format!("corrupt VDB file: bad offsets for {what}"));
+        }
+        if end_pos as u64 > len {
+            return Err(w.truncated(&what, end_pos as u64));
+        }
+        w.seek(end_pos as u64)?;
+        grids.push((name, kind));
+    }
+    Ok(Layout {
+        version,
+        has_offsets,
+        grids,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Cursor;
+
+    /// A minimal version-224 file: one metadata entry, one grid descriptor of `payload` bytes.
+    fn file(payload: usize) -> Vec<u8> {
+        let mut f = MAGIC.to_vec();
+        for v in [224u32, 10, 0] {
+            f.extend(v.to_le_bytes());
+        }
+        f.push(1);
+        f.extend([b'0'; 36]);
+        let string = |f: &mut Vec<u8>, s: &str| {
+            f.extend((s.len() as u32).to_le_bytes());
+            f.extend(s.as_bytes());
+        };
+        f.extend(1u32.to_le_bytes());
+        string(&mut f, "creator");
+        string(&mut f, "string");
+        string(&mut f, "me");
+        f.extend(1u32.to_le_bytes());
+        string(&mut f, "surface");
+        string(&mut f, "Tree_float_5_4_3");
+        string(&mut f, "");
+        let grid_pos = f.len() as i64 + 24;
+        let end = grid_pos + payload as i64;
+        for p in [grid_pos, grid_pos, end] {
+            f.extend(p.to_le_bytes());
+        }
+        f.resize(end as usize, 7);
+        f
+    }
+
+    fn check_bytes(bytes: &[u8]) -> Result<Layout, String> {
+        check(Cursor::new(bytes), bytes.len() as u64)
+    }
+
+    #[test]
+    fn whole_file_passes() {
+        let layout = check_bytes(&file(100)).unwrap();
+        assert_eq!(layout.version, 224);
+        assert!(layout.has_offsets);
+        assert_eq!(
+            layout.grids,
+            vec![("surface".to_string(), "Tree_float_5_4_3".to_string())]
+        );
+    }
+
+    #[test]
+    fn every_truncation_is_an_error() {
+        let f = file(100);
+        for cut in 0..f.len() {
+            let err = check_bytes(&f[..cut]).unwrap_err();
+            assert!(!err.contains('\n'), "{err}");
+        }
+    }
+
+    #[test]
+    fn huge_counts_are_corrupt_not_a_hang() {
+        let mut f = file(10);
+        let at = 8 + 12 + 1 + 36; // metadata count
+        f[at..at + 4].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert!(check_bytes(&f).unwrap_err().contains("corrupt"));
+    }
+}

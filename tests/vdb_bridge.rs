@@ -1,0 +1,268 @@
+//! The OpenVDB bridge: grids cross both ways without losing a bit, and OpenVDB's tools
+//! (volumeToMesh, LevelSetMeasure, checkLevelSet) answer through it.
+
+use std::f64::consts::PI;
+
+use activeskin::vdb::{self, FileMetadata, Grid, GridClass, GridData, Transform, WriteOptions};
+
+fn metadata() -> FileMetadata {
+    FileMetadata {
+        creator: "activeskin tests".into(),
+        has_frame: true,
+        frame: 7,
+    }
+}
+
+/// A level-set sphere whose interior holds inactive tiles: OpenVDB's sphere is
+/// flood-filled; pruning also collapses uniform leaves.
+fn sphere_with_interior_tiles() -> Grid {
+    let mut grid = Grid::level_set_sphere(1.0, [0.25, -0.5, 0.125], 0.025, 3.0).unwrap();
+    grid.prune_level_set().unwrap();
+    grid
+}
+
+fn assert_bit_identical(a: &GridData, b: &GridData) {
+    assert_eq!(a.name, b.name);
+    assert_eq!(a.class, b.class);
+    assert_eq!(a.background.to_bits(), b.background.to_bits());
+    assert_eq!(a.transform, b.transform);
+    assert_eq!(a.uniform_linear, b.uniform_linear);
+    assert_eq!(a.leaf_origins, b.leaf_origins);
+    assert_eq!(a.leaf_masks, b.leaf_masks);
+    assert_eq!(a.leaf_values.len(), b.leaf_values.len());
+    let differing = a
+        .leaf_values
+        .iter()
+        .zip(&b.leaf_values)
+        .filter(|(x, y)| x.to_bits() != y.to_bits())
+        .count();
+    assert_eq!(differing, 0, "values differ");
+    assert_eq!(a.tiles.len(), b.tiles.len());
+    for (s, t) in a.tiles.iter().zip(&b.tiles) {
+        assert_eq!(
+            (s.origin, s.dim, s.value.to_bits(), s.active),
+            (t.origin, t.dim, t.value.to_bits(), t.active)
+        );
+    }
+}
+
+#[test]
+fn sphere_round_trips_bit_for_bit_with_interior_tiles() {
+    let dir = tempfile::tempdir().unwrap();
+    let original = sphere_with_interior_tiles();
+    let data = original.to_data().unwrap();
+
+    // The fixture must really exercise tiles: interior (negative) inactive ones.
+    let interior = data
+        .tiles
+        .iter()
+        .filter(|t| !t.active && t.value == -data.background)
+        .count();
+    assert!(interior > 50, "only {interior} interior tiles");
+    assert_eq!(data.class, GridClass::LevelSet);
+    assert_eq!(data.name, "surface");
+    assert!(data.uniform_linear);
+    assert_eq!(data.active_voxel_count(), original.active_voxel_count());
+
+    // Rust → OpenVDB → file → OpenVDB → Rust.
+    let rebuilt = Grid::from_data(&data).unwrap();
+    assert_eq!(rebuilt.active_voxel_count(), original.active_voxel_count());
+    let path = dir.path().join("sphere.0007.vdb");
+    vdb::write_grids(&path, &[(&rebuilt, WriteOptions::default())], &metadata()).unwrap();
+    let back = Grid::read(&path, Some("surface"))
+        .unwrap()
+        .to_data()
+        .unwrap();
+    assert_bit_identical(&data, &back);
+
+    // The default grid is the first float grid.
+    let first = Grid::read(&path, None).unwrap().to_data().unwrap();
+    assert_bit_identical(&data, &first);
+    // No temporary file left beside the output.
+    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+    assert_eq!(names.len(), 1);
+}
+
+#[test]
+fn translated_transform_and_background_survive() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut data = sphere_with_interior_tiles().to_data().unwrap();
+    data.transform = Transform::uniform(0.1, [1.5, -2.25, 3.0]);
+    data.name = "skin".into();
+    let path = dir.path().join("moved.vdb");
+    let grid = Grid::from_data(&data).unwrap();
+    vdb::write_grids(&path, &[(&grid, WriteOptions::default())], &metadata()).unwrap();
+    let back = Grid::read(&path, Some("skin")).unwrap().to_data().unwrap();
+    assert_bit_identical(&data, &back);
+    assert_eq!(
+        back.transform.index_to_world([1.0, 0.0, 0.0]),
+        [1.6, -2.25, 3.0]
+    );
+    assert!((back.transform.voxel_size() - 0.1).abs() < 1e-15);
+}
+
+#[test]
+fn non_uniform_transform_is_reported() {
+    let mut data = sphere_with_interior_tiles().to_data().unwrap();
+    data.transform.matrix[5] = 0.05; // y scale differs from x
+    let back = Grid::from_data(&data).unwrap().to_data().unwrap();
+    assert!(!back.uniform_linear);
+    assert_eq!(back.transform, data.transform);
+}
+
+#[test]
+fn half_float_storage_rounds_to_half_precision() {
+    let dir = tempfile::tempdir().unwrap();
+    let grid = sphere_with_interior_tiles();
+    let data = grid.to_data().unwrap();
+    let path = dir.path().join("half.vdb");
+    let options = WriteOptions { half_float: true };
+    vdb::write_grids(&path, &[(&grid, options)], &metadata()).unwrap();
+    let back = Grid::read(&path, None).unwrap().to_data().unwrap();
+    assert_eq!(back.leaf_masks, data.leaf_masks);
+    let mut changed = 0;
+    for (a, b) in data.leaf_values.iter().zip(&back.leaf_values) {
+        // Half floats keep 11 significant bits.
+        assert!((a - b).abs() <= a.abs() * 1e-3 + 1e-7, "{a} vs {b}");
+        changed += usize::from(a != b);
+    }
+    assert!(changed > 0, "half-float storage did not apply");
+    let full = dir.path().join("full.vdb");
+    vdb::write_grids(&full, &[(&grid, WriteOptions::default())], &metadata()).unwrap();
+    let size = |p: &std::path::Path| std::fs::metadata(p).unwrap().len();
+    assert!(size(&path) < size(&full));
+}
+
+#[test]
+fn several_grids_in_one_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = Grid::level_set_sphere(1.0, [0.0; 3], 0.1, 3.0).unwrap();
+    let mut b_data = Grid::level_set_sphere(0.5, [2.0, 0.0, 0.0], 0.05, 3.0)
+        .unwrap()
+        .to_data()
+        .unwrap();
+    b_data.name = "second".into();
+    b_data.class = GridClass::FogVolume;
+    let b = Grid::from_data(&b_data).unwrap();
+    let path = dir.path().join("two.vdb");
+    let options = WriteOptions::default();
+    vdb::write_grids(&path, &[(&a, options), (&b, options)], &metadata()).unwrap();
+    let grids = vdb::list_grids(&path).unwrap();
+    let names: Vec<_> = grids.iter().map(|g| g.name.as_str()).collect();
+    assert_eq!(names, ["surface", "second"]);
+    assert_eq!(grids[1].grid_class, GridClass::FogVolume);
+    assert_eq!(grids[1].voxel_size, [0.05f32 as f64; 3]);
+    let second = Grid::read(&path, Some("second"))
+        .unwrap()
+        .to_data()
+        .unwrap();
+    assert_bit_identical(&b_data, &second);
+}
+
+#[test]
+fn openvdb_tools_measure_a_sphere() {
+    let r = 1.0;
+    let dx = 0.025;
+    let sphere = Grid::level_set_sphere(r as f32, [0.0; 3], dx as f32, 3.0).unwrap();
+    let m = sphere.measure_level_set().unwrap();
+    let area = 4.0 * PI * r * r;
+    let volume = 4.0 / 3.0 * PI * r * r * r;
+    assert!((m.area - area).abs() / area < 0.005, "area {}", m.area);
+    assert!(
+        (m.volume - volume).abs() / volume < 0.005,
+        "volume {}",
+        m.volume
+    );
+    assert!(
+        (m.mean_curvature - 1.0 / r).abs() < 0.01,
+        "{}",
+        m.mean_curvature
+    );
+    assert_eq!(m.euler_characteristic, 2);
+    assert_eq!(m.genus, 0);
+    assert_eq!(sphere.check_level_set().unwrap(), Ok(()));
+
+    let mesh = sphere.volume_to_mesh(0.0, 0.0).unwrap();
+    assert!(mesh.triangles.is_empty(), "adaptivity 0 gives quads only");
+    assert_eq!(mesh.quads.len() % 4, 0);
+    let max_index = *mesh.quads.iter().max().unwrap() as usize;
+    assert!(max_index < mesh.points.len() / 3);
+    for p in mesh.points.chunks(3) {
+        let d = (p.iter().map(|&c| f64::from(c).powi(2)).sum::<f64>()).sqrt();
+        assert!((d - r).abs() < 0.1 * dx, "mesh point {d} off the sphere");
+    }
+    let adaptive = sphere.volume_to_mesh(0.0, 0.5).unwrap();
+    assert!(adaptive.points.len() < mesh.points.len());
+}
+
+#[test]
+fn check_level_set_reports_a_broken_band() {
+    let mut data = Grid::level_set_sphere(1.0, [0.0; 3], 0.05, 3.0)
+        .unwrap()
+        .to_data()
+        .unwrap();
+    // Inactive values no longer equal ± the background: not a valid narrow band.
+    data.background *= 2.0;
+    let grid = Grid::from_data(&data).unwrap();
+    let report = grid.check_level_set().unwrap().unwrap_err();
+    assert!(!report.is_empty());
+}
+
+#[test]
+fn openvdb_errors_arrive_as_err_with_their_message() {
+    let mut data = Grid::level_set_sphere(1.0, [0.0; 3], 0.1, 3.0)
+        .unwrap()
+        .to_data()
+        .unwrap();
+    data.transform.matrix = [0.0; 16];
+    data.transform.matrix[15] = 1.0; // singular
+    let err = Grid::from_data(&data)
+        .err()
+        .expect("a singular map must fail");
+    assert!(err.to_string().contains("Error"), "{err}");
+
+    data.transform = Transform::uniform(0.1, [0.0; 3]);
+    data.class = GridClass::FogVolume;
+    let fog = Grid::from_data(&data).unwrap();
+    let err = fog.measure_level_set().unwrap_err().to_string();
+    assert!(err.contains("level set"), "{err}");
+
+    data.leaf_values.pop();
+    let err = Grid::from_data(&data).err().unwrap().to_string();
+    assert!(err.contains("leaf arrays disagree"), "{err}");
+}
+
+#[test]
+fn write_failure_leaves_earlier_file_intact() {
+    let dir = tempfile::tempdir().unwrap();
+    let grid = Grid::level_set_sphere(1.0, [0.0; 3], 0.1, 3.0).unwrap();
+    let missing_folder = dir.path().join("no/such/folder/x.vdb");
+    let err = vdb::write_grids(
+        &missing_folder,
+        &[(&grid, WriteOptions::default())],
+        &metadata(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("x.vdb"), "{err}");
+    assert!(!err.contains('\n'));
+}
+
+#[test]
+fn grid_lookup_errors_name_the_grids() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("vector.vdb");
+    vdb::write_vector_grid_file(&path).unwrap();
+    let err = Grid::read(&path, None).err().unwrap().to_string();
+    assert!(
+        err.contains("no float grid") && err.contains("'v'"),
+        "{err}"
+    );
+    let err = Grid::read(&path, Some("v")).err().unwrap().to_string();
+    assert!(err.contains("not a float grid"), "{err}");
+    let err = Grid::read(&path, Some("density"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(err.contains("no grid named 'density'"), "{err}");
+}
