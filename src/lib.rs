@@ -17,7 +17,13 @@
 //! # Ok(()) }
 //! ```
 
+pub mod grid;
 pub mod io;
+pub mod mesh;
+pub mod polygonize;
+pub mod skin;
+pub mod stencil;
+pub mod target;
 pub mod vdb;
 
 /// Every error of the library, one variant per stage.
@@ -25,4 +31,6 @@ pub mod vdb;
 pub enum Error {
     #[error(transparent)]
     Vdb(#[from] vdb::VdbError),
+    #[error(transparent)]
+    Mesh(#[from] mesh::MeshError),
 }

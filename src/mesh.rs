@@ -1,0 +1,243 @@
+//! Indexed triangle meshes: measures (area, enclosed volume, Euler characteristic,
+//! components), topology checks, and OBJ / binary PLY writers.
+
+use std::io::Write;
+use std::path::Path;
+
+use glam::Vec3;
+use hashbrown::HashMap;
+
+#[derive(Debug, Clone, Default)]
+pub struct Mesh {
+    /// World-space positions.
+    pub positions: Vec<Vec3>,
+    /// Unit outward normals, one per position.
+    pub normals: Vec<Vec3>,
+    /// Counter-clockwise seen from outside.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// Why a mesh could not be written.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {message}", path.display())]
+pub struct MeshError {
+    pub path: std::path::PathBuf,
+    pub message: String,
+}
+
+/// Whether each undirected edge has exactly two triangles, traversed in opposite
+/// directions, and each vertex's triangles form one fan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Topology {
+    pub closed: bool,
+    pub manifold: bool,
+}
+
+impl Mesh {
+    pub fn clear(&mut self) {
+        self.positions.clear();
+        self.normals.clear();
+        self.triangles.clear();
+    }
+
+    fn corners(&self, t: &[u32; 3]) -> [Vec3; 3] {
+        t.map(|i| self.positions[i as usize])
+    }
+
+    pub fn area(&self) -> f64 {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = self.corners(t);
+                f64::from(0.5 * (b - a).cross(c - a).length())
+            })
+            .sum()
+    }
+
+    /// Signed enclosed volume (positive for an outward-wound closed mesh).
+    pub fn volume(&self) -> f64 {
+        let centre = self.positions.first().copied().unwrap_or(Vec3::ZERO);
+        self.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = self.corners(t).map(|p| (p - centre).as_dvec3());
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum()
+    }
+
+    /// χ = V − E + F over the vertices the triangles use.
+    pub fn euler_characteristic(&self) -> i64 {
+        let mut used = vec![false; self.positions.len()];
+        let mut edges = hashbrown::HashSet::with_capacity(self.triangles.len() * 3 / 2);
+        for t in &self.triangles {
+            for i in 0..3 {
+                used[t[i] as usize] = true;
+                let (a, b) = (t[i], t[(i + 1) % 3]);
+                edges.insert((a.min(b), a.max(b)));
+            }
+        }
+        let v = used.iter().filter(|&&u| u).count() as i64;
+        v - edges.len() as i64 + self.triangles.len() as i64
+    }
+
+    /// Connected components (through shared vertices).
+    pub fn components(&self) -> usize {
+        let mut parent: Vec<u32> = (0..self.positions.len() as u32).collect();
+        fn root(parent: &mut [u32], mut i: u32) -> u32 {
+            while parent[i as usize] != i {
+                let p = parent[parent[i as usize] as usize];
+                parent[i as usize] = p;
+                i = p;
+            }
+            i
+        }
+        for t in &self.triangles {
+            let a = root(&mut parent, t[0]);
+            for &v in &t[1..] {
+                let b = root(&mut parent, v);
+                parent[b as usize] = a;
+            }
+        }
+        let mut used = vec![false; self.positions.len()];
+        for t in &self.triangles {
+            for &v in t {
+                used[v as usize] = true;
+            }
+        }
+        (0..self.positions.len() as u32)
+            .filter(|&i| used[i as usize] && root(&mut parent, i) == i)
+            .count()
+    }
+
+    pub fn topology(&self) -> Topology {
+        let mut directed: HashMap<(u32, u32), u32> =
+            HashMap::with_capacity(self.triangles.len() * 3);
+        for t in &self.triangles {
+            for i in 0..3 {
+                *directed.entry((t[i], t[(i + 1) % 3])).or_insert(0) += 1;
+            }
+        }
+        let closed = directed
+            .iter()
+            .all(|(&(a, b), &n)| n == 1 && directed.get(&(b, a)) == Some(&1));
+        // Manifold vertices: the triangles around each vertex form a single cycle.
+        let mut around: Vec<(u32, u32, u32)> = Vec::with_capacity(self.triangles.len() * 3);
+        for t in &self.triangles {
+            for i in 0..3 {
+                // Around t[i], this triangle leads from neighbour t[i+1] to t[i+2].
+                around.push((t[i], t[(i + 1) % 3], t[(i + 2) % 3]));
+            }
+        }
+        around.sort_unstable();
+        let manifold = closed
+            && around.chunk_by(|a, b| a.0 == b.0).all(|fan| {
+                let step = |from: u32| {
+                    fan.binary_search_by_key(&from, |&(_, a, _)| a)
+                        .ok()
+                        .map(|i| fan[i].2)
+                };
+                let mut at = fan[0].1;
+                for _ in 0..fan.len() {
+                    match step(at) {
+                        Some(n) => at = n,
+                        None => return false,
+                    }
+                }
+                // Back at the start after exactly one trip round: one fan, not several.
+                let mut steps = 0;
+                let start = fan[0].1;
+                let mut at = start;
+                loop {
+                    at = step(at).unwrap_or(start);
+                    steps += 1;
+                    if at == start {
+                        break;
+                    }
+                }
+                steps == fan.len()
+            });
+        Topology { closed, manifold }
+    }
+
+    /// Wavefront OBJ with normals, through a temporary file renamed into place.
+    pub fn write_obj(&self, path: &Path) -> Result<(), MeshError> {
+        self.write_with(path, |w| {
+            writeln!(w, "# activeskin {}", env!("CARGO_PKG_VERSION"))?;
+            for p in &self.positions {
+                writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+            }
+            for n in &self.normals {
+                writeln!(w, "vn {} {} {}", n.x, n.y, n.z)?;
+            }
+            for t in &self.triangles {
+                let [a, b, c] = t.map(|i| i + 1);
+                writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
+            }
+            Ok(())
+        })
+    }
+
+    /// Binary little-endian PLY with normals.
+    pub fn write_ply(&self, path: &Path) -> Result<(), MeshError> {
+        self.write_with(path, |w| {
+            write!(
+                w,
+                "ply\nformat binary_little_endian 1.0\ncomment activeskin {}\n\
+                 element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+                 property float nx\nproperty float ny\nproperty float nz\n\
+                 element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+                env!("CARGO_PKG_VERSION"),
+                self.positions.len(),
+                self.triangles.len()
+            )?;
+            for (p, n) in self.positions.iter().zip(&self.normals) {
+                for c in [p.x, p.y, p.z, n.x, n.y, n.z] {
+                    w.write_all(&c.to_le_bytes())?;
+                }
+            }
+            for t in &self.triangles {
+                w.write_all(&[3])?;
+                for &i in t {
+                    w.write_all(&(i as i32).to_le_bytes())?;
+                }
+            }
+            Ok(())
+        })
+    }
+
+    /// OBJ or PLY by the file's extension.
+    pub fn write(&self, path: &Path) -> Result<(), MeshError> {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+        {
+            Some(e) if e == "obj" => self.write_obj(path),
+            Some(e) if e == "ply" => self.write_ply(path),
+            _ => Err(MeshError {
+                path: path.into(),
+                message: "mesh files must end in .obj or .ply".into(),
+            }),
+        }
+    }
+
+    fn write_with(
+        &self,
+        path: &Path,
+        body: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+    ) -> Result<(), MeshError> {
+        crate::io::write_atomically(path, |tmp| {
+            let file = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
+            let mut w = std::io::BufWriter::new(file);
+            body(&mut w)
+                .and_then(|()| w.flush())
+                .map_err(|e| e.to_string())?;
+            w.get_ref().sync_all().map_err(|e| e.to_string())
+        })
+        .map_err(|message| MeshError {
+            path: path.into(),
+            message,
+        })
+    }
+}

@@ -1,0 +1,330 @@
+//! Marching cubes over the tube (paper §3.2, §4.6): an indexed mesh with one shared vertex
+//! per crossed edge, its normals from the interpolated gradient, and the crossing points
+//! handed to the next step (§4.3.2).
+//!
+//! Cube corners and edges (corner c sits at (c & 1, c >> 1 & 1, c >> 2 & 1)):
+//!
+//! ```text
+//!         6-----11-------7            edges by axis
+//!        /|             /|            x:  0 (0-1)  1 (2-3)  2 (4-5)  3 (6-7)
+//!       6 |            7 |            y:  4 (0-2)  5 (1-3)  6 (4-6)  7 (5-7)
+//!      /  10          /  11           z:  8 (0-4)  9 (1-5) 10 (2-6) 11 (3-7)
+//!     4------2-------5   |
+//!     |   |          |   |      z
+//!     |   2------1---|---3      |  y
+//!     8  /           9  /       | /
+//!     | 4            | 5        |/
+//!     |/             |/         +---- x
+//!     0------0-------1
+//! ```
+//!
+//! No 256-case table: each cube's polygons are assembled from its six faces. Walking a face
+//! counter-clockwise seen from outside the cube, a crossing from an inside corner (φ < 0)
+//! to an outside one is an *exit*, the reverse an *entry*; every entry is joined to the next
+//! exit. That one rule separates inside corners on ambiguous faces, the same way from both
+//! cubes sharing the face, so the mesh is closed and manifold; and each crossing point is
+//! an entry on one of its faces and an exit on the other, so the segments chain into loops
+//! wound with the normal pointing outward (toward φ > 0).
+
+use glam::{IVec3, Vec3};
+use hashbrown::HashMap;
+use rayon::prelude::*;
+
+use crate::grid::{offset_coords, Halo, Potential, SparseGrid, BLOCK_DIM};
+use crate::mesh::Mesh;
+
+/// Corners of each edge, ordered along its axis.
+const EDGE_CORNERS: [(usize, usize); 12] = [
+    (0, 1),
+    (2, 3),
+    (4, 5),
+    (6, 7),
+    (0, 2),
+    (1, 3),
+    (4, 6),
+    (5, 7),
+    (0, 4),
+    (1, 5),
+    (2, 6),
+    (3, 7),
+];
+
+/// Faces as corner cycles, counter-clockwise seen from outside: -x +x -y +y -z +z.
+const FACES: [[usize; 4]; 6] = [
+    [0, 4, 6, 2],
+    [1, 3, 7, 5],
+    [0, 1, 5, 4],
+    [2, 6, 7, 3],
+    [0, 2, 3, 1],
+    [4, 5, 7, 6],
+];
+
+const fn corner_offset(c: usize) -> IVec3 {
+    IVec3::new((c & 1) as i32, ((c >> 1) & 1) as i32, ((c >> 2) & 1) as i32)
+}
+
+const fn edge_between(a: usize, b: usize) -> usize {
+    let mut e = 0;
+    while e < 12 {
+        let (p, q) = EDGE_CORNERS[e];
+        if (p == a && q == b) || (p == b && q == a) {
+            return e;
+        }
+        e += 1;
+    }
+    panic!("corners are not adjacent");
+}
+
+/// Edge index of each face side (corner i to corner i+1 of `FACES`).
+const FACE_EDGES: [[usize; 4]; 6] = {
+    let mut t = [[0; 4]; 6];
+    let mut f = 0;
+    while f < 6 {
+        let mut i = 0;
+        while i < 4 {
+            t[f][i] = edge_between(FACES[f][i], FACES[f][(i + 1) % 4]);
+            i += 1;
+        }
+        f += 1;
+    }
+    t
+};
+
+/// Axis of an edge.
+const fn edge_axis(e: usize) -> usize {
+    e / 4
+}
+
+/// A crossed edge: the node at its lower end and its axis, packed into one integer.
+/// Node coordinates must lie within ±2¹⁹.
+#[inline]
+pub fn edge_key(node: IVec3, axis: usize) -> u64 {
+    const BIAS: i32 = 1 << 19;
+    let pack = |c: i32| ((c + BIAS) as u64) & 0xF_FFFF;
+    (pack(node.x) << 42) | (pack(node.y) << 22) | (pack(node.z) << 2) | axis as u64
+}
+
+/// Where the skin crossed the grid at the last polygonization: one entry per mesh vertex.
+#[derive(Default)]
+pub struct Crossings {
+    /// Edge key → vertex index.
+    pub by_edge: HashMap<u64, u32>,
+    /// Edge key of each vertex.
+    pub keys: Vec<u64>,
+}
+
+impl Crossings {
+    #[inline]
+    pub fn vertex(&self, node: IVec3, axis: usize) -> Option<u32> {
+        self.by_edge.get(&edge_key(node, axis)).copied()
+    }
+}
+
+/// Per-block output, reused between calls.
+#[derive(Default)]
+struct BlockWork {
+    keys: Vec<u64>,
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+}
+
+/// The polygonizer, with buffers reused from step to step.
+#[derive(Default)]
+pub struct Polygonizer {
+    work: Vec<BlockWork>,
+}
+
+/// Index space → world space.
+#[derive(Debug, Clone, Copy)]
+pub struct IndexToWorld {
+    pub origin: Vec3,
+    pub dx: f32,
+}
+
+impl IndexToWorld {
+    #[inline]
+    pub fn apply(&self, ijk: Vec3) -> Vec3 {
+        self.origin + ijk * self.dx
+    }
+}
+
+#[inline]
+fn inside(v: f32) -> bool {
+    v < 0.0
+}
+
+impl Polygonizer {
+    /// Meshes the zero isosurface of `grid` into `mesh` and records the crossings.
+    pub fn run<P: Potential>(
+        &mut self,
+        grid: &SparseGrid<P>,
+        xf: IndexToWorld,
+        mesh: &mut Mesh,
+        crossings: &mut Crossings,
+    ) {
+        let blocks = grid.blocks();
+        self.work.resize_with(blocks.len(), BlockWork::default);
+
+        // Pass 1: the crossed edges owned by each block (lower node inside the block).
+        self.work
+            .par_iter_mut()
+            .zip(blocks.par_iter())
+            .for_each_init(Box::<Halo>::default, |halo, (work, block)| {
+                work.keys.clear();
+                work.positions.clear();
+                work.normals.clear();
+                if block.active_count() == 0 {
+                    return;
+                }
+                halo.gather(grid, block.coord);
+                let base = block.coord * BLOCK_DIM;
+                for offset in block.active_offsets() {
+                    let l = offset_coords(offset);
+                    let fa = halo.at(l.x, l.y, l.z);
+                    for axis in 0..3 {
+                        let m = l + IVec3::AXES[axis];
+                        let fb = halo.at(m.x, m.y, m.z);
+                        if inside(fa) == inside(fb) {
+                            continue;
+                        }
+                        let t = fa / (fa - fb);
+                        let p = l.as_vec3() + IVec3::AXES[axis].as_vec3() * t;
+                        let g = gradient(halo, l).lerp(gradient(halo, m), t);
+                        work.keys.push(edge_key(base + l, axis));
+                        work.positions.push(xf.apply((base).as_vec3() + p));
+                        work.normals.push(g.normalize_or_zero());
+                    }
+                }
+            });
+
+        // Global vertex numbering, in block order.
+        mesh.clear();
+        crossings.keys.clear();
+        crossings.by_edge.clear();
+        for work in &self.work {
+            for (i, &key) in work.keys.iter().enumerate() {
+                crossings
+                    .by_edge
+                    .insert(key, (crossings.keys.len() + i) as u32);
+            }
+            crossings.keys.extend_from_slice(&work.keys);
+            mesh.positions.extend_from_slice(&work.positions);
+            mesh.normals.extend_from_slice(&work.normals);
+        }
+
+        // Pass 2: the cubes whose lower corner is an active node of the block.
+        let by_edge = &crossings.by_edge;
+        self.work
+            .par_iter_mut()
+            .zip(blocks.par_iter())
+            .for_each_init(Box::<Halo>::default, |halo, (work, block)| {
+                work.triangles.clear();
+                if block.active_count() == 0 {
+                    return;
+                }
+                halo.gather(grid, block.coord);
+                let base = block.coord * BLOCK_DIM;
+                for offset in block.active_offsets() {
+                    let l = offset_coords(offset);
+                    cube_triangles(halo, l, base, by_edge, &mut work.triangles);
+                }
+            });
+        for work in &self.work {
+            mesh.triangles.extend_from_slice(&work.triangles);
+        }
+    }
+}
+
+/// Gradient at a halo node; one-sided on the halo's far border.
+#[inline]
+fn gradient(halo: &Halo, l: IVec3) -> Vec3 {
+    let d = |axis: usize| {
+        let e = IVec3::AXES[axis];
+        let (lo, hi) = (l - e, l + e);
+        let c = l[axis];
+        if c >= BLOCK_DIM {
+            halo.at(l.x, l.y, l.z) - halo.at(lo.x, lo.y, lo.z)
+        } else {
+            0.5 * (halo.at(hi.x, hi.y, hi.z) - halo.at(lo.x, lo.y, lo.z))
+        }
+    };
+    Vec3::new(d(0), d(1), d(2))
+}
+
+/// Polygons of the cube with lower corner `l` (local), fanned into triangles.
+fn cube_triangles(
+    halo: &Halo,
+    l: IVec3,
+    base: IVec3,
+    by_edge: &HashMap<u64, u32>,
+    out: &mut Vec<[u32; 3]>,
+) {
+    let mut signs = 0u8;
+    for c in 0..8 {
+        let p = l + corner_offset(c);
+        if inside(halo.at(p.x, p.y, p.z)) {
+            signs |= 1 << c;
+        }
+    }
+    if signs == 0 || signs == 0xFF {
+        return;
+    }
+    let is_in = |c: usize| signs >> c & 1 == 1;
+
+    // next[e] = the edge that follows crossed edge e along its loop.
+    let mut next = [u8::MAX; 12];
+    for (face, edges) in FACES.iter().zip(FACE_EDGES.iter()) {
+        let mut events = [(0u8, false); 4];
+        let mut n = 0;
+        for i in 0..4 {
+            let (a, b) = (face[i], face[(i + 1) % 4]);
+            if is_in(a) != is_in(b) {
+                events[n] = (edges[i] as u8, is_in(b));
+                n += 1;
+            }
+        }
+        for i in 0..n {
+            let (edge, entry) = events[i];
+            if entry {
+                next[edge as usize] = events[(i + 1) % n].0;
+            }
+        }
+    }
+
+    // Every crossed edge of an active cube has a vertex while the tube is valid; if one is
+    // missing (a skin that jumped a node), the cube is left out rather than guessed.
+    let mut vertices = [0u32; 12];
+    for e in 0..12 {
+        if next[e] != u8::MAX {
+            let (a, _) = EDGE_CORNERS[e];
+            let node = base + l + corner_offset(a);
+            match by_edge.get(&edge_key(node, edge_axis(e))) {
+                Some(&v) => vertices[e] = v,
+                None => return,
+            }
+        }
+    }
+    let vertex = |e: usize| vertices[e];
+    let mut done = 0u16;
+    for start in 0..12 {
+        if next[start] == u8::MAX || done >> start & 1 == 1 {
+            continue;
+        }
+        let mut lp = [0u32; 12];
+        let mut len = 0;
+        let mut e = start;
+        loop {
+            done |= 1 << e;
+            lp[len] = vertex(e);
+            len += 1;
+            e = next[e] as usize;
+            if e == start || len == 12 {
+                break;
+            }
+        }
+        for i in 1..len.saturating_sub(1) {
+            out.push([lp[0], lp[i], lp[i + 1]]);
+        }
+    }
+}

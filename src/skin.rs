@@ -1,0 +1,463 @@
+//! The active implicit skin (paper §4): a potential on the sparse grid, advanced toward a
+//! target in sub-steps (§4.7, §4.8), polygonized after every step.
+//!
+//! Paper section → module: §3.2/§4.6 [`crate::polygonize`], §3.4/§4.3/§5 [`speed`],
+//! §4.1/§4.5 [`band`], §4.2 [`crate::grid`], §4.4 [`crate::stencil`], §4.7 [`Skin::step`],
+//! §4.8 [`timestep`].
+
+pub mod band;
+pub mod speed;
+pub mod timestep;
+
+use glam::{IVec3, Vec3};
+use rayon::prelude::*;
+
+use crate::grid::{
+    offset_coords, Fixed16, Halo, Potential, Precision, SparseGrid, BLOCK_DIM, BLOCK_NODES,
+};
+use crate::mesh::Mesh;
+use crate::polygonize::{Crossings, IndexToWorld, Polygonizer};
+use crate::stencil::Stencil;
+use crate::target::Target;
+use crate::vdb::{GridClass, GridData, Tile, Transform, MASK_WORDS};
+
+pub use speed::{AttractionSample, SpeedParams};
+
+/// How the skin is discretised and advanced.
+#[derive(Debug, Clone, Copy)]
+pub struct SkinParams {
+    pub speed: SpeedParams,
+    /// Voxel size Δx, world units.
+    pub dx: f32,
+    /// Half-width w of the tube in voxels: in the band f ≈ signed distance / (w Δx).
+    pub band_width: f32,
+    /// Fraction of the stable time step taken (§4.8).
+    pub safety: f32,
+    /// Upwind renormalisation sweeps per step (0: the paper's unrenormalised potential).
+    pub renormalize_sweeps: u32,
+    pub precision: Precision,
+}
+
+impl Default for SkinParams {
+    fn default() -> Self {
+        SkinParams {
+            speed: SpeedParams::default(),
+            dx: 1.0 / 32.0,
+            band_width: 3.0,
+            safety: 0.5,
+            renormalize_sweeps: 1,
+            precision: Precision::F32,
+        }
+    }
+}
+
+/// What one step or one advance did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StepStats {
+    pub substeps: u32,
+    pub band_nodes: usize,
+    pub blocks: usize,
+    pub area: f64,
+    pub volume: f64,
+    pub euler_characteristic: i64,
+    pub components: usize,
+    /// Largest |Δf| of the last sub-step, in voxels (|Δφ| / Δx).
+    pub max_change_voxels: f32,
+}
+
+/// A skin stored with potential type `P`.
+pub struct Skin<P> {
+    grid: SparseGrid<P>,
+    params: SkinParams,
+    xf: IndexToWorld,
+    time: f64,
+    mesh: Mesh,
+    crossings: Crossings,
+    /// Target distance at each crossing point, one evaluation each (§4.3.2).
+    crossing_distance: Vec<f32>,
+    polygonizer: Polygonizer,
+    /// ∂f/∂t of each node, then scratch for renormalisation.
+    rates: Vec<[f32; BLOCK_NODES]>,
+    rest_area: f64,
+    rest_volume: f64,
+    last_change: f32,
+    track_change: bool,
+}
+
+impl<P: Potential> Skin<P> {
+    /// A skin whose zero set is the surface of `start`, sampled on voxels of `params.dx`.
+    pub fn new(start: &dyn Target, params: SkinParams) -> Self {
+        let dx = params.dx;
+        let w = params.band_width;
+        let xf = IndexToWorld {
+            origin: Vec3::ZERO,
+            dx,
+        };
+        let bounds = start.bounds().padded((w + 2.0) * dx);
+        let lo = (bounds.min / (dx * BLOCK_DIM as f32)).floor().as_ivec3() - IVec3::ONE;
+        let hi = (bounds.max / (dx * BLOCK_DIM as f32)).ceil().as_ivec3() + IVec3::ONE;
+        let coords: Vec<IVec3> = (lo.x..=hi.x)
+            .flat_map(|x| {
+                (lo.y..=hi.y).flat_map(move |y| (lo.z..=hi.z).map(move |z| IVec3::new(x, y, z)))
+            })
+            .collect();
+        // A block whose centre is farther from the surface than its half-diagonal plus
+        // the band is a tile; the rest are sampled node by node.
+        let reach = (3.5 * 3f32.sqrt() + w + 1.0) * dx;
+        let classified: Vec<(IVec3, f32)> = coords
+            .par_iter()
+            .map(|&c| {
+                let centre = xf.apply((c * BLOCK_DIM).as_vec3() + Vec3::splat(3.5));
+                (c, start.distance(centre))
+            })
+            .collect();
+        let mut grid = SparseGrid::new();
+        for (c, d) in classified {
+            if d > reach {
+                continue;
+            } else if d < -reach {
+                grid.set_tile(c, true);
+            } else {
+                grid.touch(c);
+            }
+        }
+        band::fill(&mut grid, |ijk| {
+            start.distance(xf.apply(ijk.as_vec3())) / (w * dx)
+        });
+        band::upkeep(&mut grid);
+        let mut skin = Skin {
+            grid,
+            params,
+            xf,
+            time: 0.0,
+            mesh: Mesh::default(),
+            crossings: Crossings::default(),
+            crossing_distance: Vec::new(),
+            polygonizer: Polygonizer::default(),
+            rates: Vec::new(),
+            rest_area: 0.0,
+            rest_volume: 0.0,
+            last_change: 0.0,
+            track_change: false,
+        };
+        for _ in 0..3 {
+            band::renormalize(&mut skin.grid, w, &mut skin.rates);
+            band::upkeep(&mut skin.grid);
+        }
+        skin.polygonize();
+        skin.rest_area = skin.mesh.area();
+        skin.rest_volume = skin.mesh.volume();
+        skin
+    }
+
+    pub fn params(&self) -> &SkinParams {
+        &self.params
+    }
+
+    pub fn set_speed(&mut self, speed: SpeedParams) {
+        self.params.speed = speed;
+    }
+
+    /// The area and volume the preservation terms (§5) hold the skin to.
+    pub fn set_rest_measures(&mut self, area: f64, volume: f64) {
+        self.rest_area = area;
+        self.rest_volume = volume;
+    }
+
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    pub fn grid(&self) -> &SparseGrid<P> {
+        &self.grid
+    }
+
+    /// The mesh of the last polygonization.
+    pub fn mesh(&self) -> &Mesh {
+        &self.mesh
+    }
+
+    pub fn stats(&self) -> StepStats {
+        StepStats {
+            substeps: 0,
+            band_nodes: self.grid.active_node_count(),
+            blocks: self.grid.block_count(),
+            area: self.mesh.area(),
+            volume: self.mesh.volume(),
+            euler_characteristic: self.mesh.euler_characteristic(),
+            components: self.mesh.components(),
+            max_change_voxels: self.last_change,
+        }
+    }
+
+    /// Advances the skin by `duration` seconds toward `target`, in stable sub-steps that
+    /// land exactly on the end time.
+    pub fn advance(&mut self, target: &dyn Target, duration: f64) -> StepStats {
+        let mut remaining = duration;
+        let mut substeps = 0;
+        while remaining > 0.0 {
+            let v_max = self.compute_rates(target);
+            let stable = timestep::stable_dt(
+                self.params.dx,
+                v_max,
+                self.params.speed.beta,
+                self.params.safety,
+            );
+            let dt = timestep::next_substep(remaining, stable);
+            self.apply_rates(dt as f32);
+            self.time += dt;
+            remaining -= dt;
+            substeps += 1;
+        }
+        StepStats {
+            substeps,
+            ..self.stats()
+        }
+    }
+
+    /// One time step of §4.7 with a given `dt`: speeds from a consistent potential, then
+    /// update, clamp, retire and wake, then polygonize for the next step.
+    pub fn step(&mut self, target: &dyn Target, dt: f32) {
+        self.compute_rates(target);
+        self.apply_rates(dt);
+        self.time += f64::from(dt);
+    }
+
+    /// The largest stable time step for the current state against `target`.
+    pub fn stable_dt(&mut self, target: &dyn Target) -> f32 {
+        let v_max = self.compute_rates(target);
+        timestep::stable_dt(
+            self.params.dx,
+            v_max,
+            self.params.speed.beta,
+            self.params.safety,
+        )
+    }
+
+    /// Pass 1 (read-only): ∂f/∂t at every active node. Returns the largest |V| among
+    /// nodes in the band, for the CFL bound.
+    fn compute_rates(&mut self, target: &dyn Target) -> f32 {
+        // G at each crossing point of the last mesh: one target evaluation each.
+        let positions = &self.mesh.positions;
+        self.crossing_distance.clear();
+        self.crossing_distance
+            .par_extend(positions.par_iter().map(|&p| target.distance(p)));
+
+        let global = speed::GlobalTerms::new(
+            &self.params.speed,
+            (self.mesh.area(), self.rest_area),
+            (self.mesh.volume(), self.rest_volume),
+        );
+        let grid = &self.grid;
+        let params = &self.params;
+        let xf = self.xf;
+        let crossings = &self.crossings;
+        let crossing_distance = &self.crossing_distance;
+        self.rates.resize(grid.block_count(), [0.0; BLOCK_NODES]);
+        self.rates
+            .par_iter_mut()
+            .zip(grid.blocks().par_iter())
+            .map_init(Box::<Halo>::default, |halo, (rates, block)| {
+                halo.gather(grid, block.coord);
+                let base = block.coord * BLOCK_DIM;
+                let to_world = |p: Vec3| xf.apply(p);
+                let mut v_max = 0.0f32;
+                for offset in block.active_offsets() {
+                    let l = offset_coords(offset);
+                    let stencil = Stencil::from_halo(halo, l.x, l.y, l.z);
+                    let grad = stencil.gradient();
+                    let ijk = base + l;
+                    let node = speed::NodeContext {
+                        ijk,
+                        world: xf.apply(ijk.as_vec3()),
+                        to_world: &to_world,
+                        dx: params.dx,
+                    };
+                    let d = speed::attraction_distance(
+                        &params.speed,
+                        &stencil,
+                        grad,
+                        &node,
+                        crossings,
+                        crossing_distance,
+                        target,
+                    );
+                    let v = speed::normal_speed(
+                        &params.speed,
+                        &global,
+                        d,
+                        stencil.mean_curvature(),
+                        node.dx,
+                    );
+                    // ∂φ/∂t = −V|∇φ| with φ = f·wΔx and ∇ in index units, upwind.
+                    rates[offset] = -v * stencil.upwind_gradient_norm(v > 0.0) / params.dx;
+                    if stencil.center().abs() < 1.0 {
+                        v_max = v_max.max(v.abs());
+                    }
+                }
+                v_max
+            })
+            .reduce(|| 0.0, f32::max)
+    }
+
+    /// Pass 2: f += dt ∂f/∂t, clamped; band upkeep; renormalisation; polygonization.
+    fn apply_rates(&mut self, dt: f32) {
+        let w = self.params.band_width;
+        let before = self.track_change.then(|| self.grid.clone());
+        self.grid
+            .blocks_mut()
+            .par_iter_mut()
+            .zip(self.rates.par_iter())
+            .for_each(|(block, rates)| {
+                for w in 0..8 {
+                    let mut bits = block.active[w];
+                    while bits != 0 {
+                        let offset = w * 64 + bits.trailing_zeros() as usize;
+                        bits &= bits - 1;
+                        let f = block.values[offset].to_f32();
+                        block.values[offset] =
+                            P::from_f32((f + dt * rates[offset]).clamp(-1.0, 1.0));
+                    }
+                }
+            });
+        band::upkeep(&mut self.grid);
+        for _ in 0..self.params.renormalize_sweeps {
+            band::renormalize(&mut self.grid, w, &mut self.rates);
+        }
+        if let Some(before) = before {
+            self.last_change = max_change(&before, &self.grid) * w;
+        }
+        self.polygonize();
+    }
+
+    /// Record the largest |Δφ| of each step in [`StepStats::max_change_voxels`] (costs a
+    /// copy of the grid per step; for tests and diagnostics).
+    pub fn track_change(&mut self, on: bool) {
+        self.track_change = on;
+    }
+
+    fn polygonize(&mut self) {
+        self.polygonizer
+            .run(&self.grid, self.xf, &mut self.mesh, &mut self.crossings);
+    }
+
+    /// The skin as a narrow-band level set: signed distance φ = f·wΔx in world units,
+    /// active where |φ| < wΔx, background wΔx, inside tiles at −wΔx (grid `surface`).
+    pub fn to_level_set(&self) -> GridData {
+        let w = self.params.band_width;
+        let dx = self.params.dx;
+        let background = w * dx;
+        let blocks = self.grid.blocks();
+        let mut data = GridData {
+            name: "surface".into(),
+            class: GridClass::LevelSet,
+            background,
+            transform: Transform::uniform(f64::from(dx), self.xf.origin.as_dvec3().to_array()),
+            uniform_linear: true,
+            leaf_origins: Vec::with_capacity(blocks.len()),
+            leaf_values: Vec::with_capacity(blocks.len() * BLOCK_NODES),
+            leaf_masks: Vec::with_capacity(blocks.len()),
+            tiles: Vec::new(),
+        };
+        for block in blocks {
+            data.leaf_origins.push((block.coord * BLOCK_DIM).to_array());
+            let mut mask = [0u64; MASK_WORDS];
+            for (offset, v) in block.values.iter().enumerate() {
+                let f = v.to_f32();
+                data.leaf_values.push(if f.abs() >= 1.0 {
+                    f.signum() * background
+                } else {
+                    f * background
+                });
+                if f.abs() < 1.0 {
+                    mask[offset >> 6] |= 1 << (offset & 63);
+                }
+            }
+            data.leaf_masks.push(mask);
+        }
+        let mut inside: Vec<IVec3> = self.grid.inside_tiles().iter().copied().collect();
+        inside.sort_unstable_by_key(|c| c.to_array());
+        data.tiles = inside
+            .into_iter()
+            .map(|c| Tile {
+                origin: (c * BLOCK_DIM).to_array(),
+                dim: BLOCK_DIM as u32,
+                value: -background,
+                active: false,
+            })
+            .collect();
+        data
+    }
+
+    /// Bytes held by the potential's grid.
+    pub fn memory_bytes(&self) -> usize {
+        self.grid.memory_bytes()
+    }
+}
+
+/// Largest |f_after − f_before| over nodes in the band of either grid.
+fn max_change<P: Potential>(before: &SparseGrid<P>, after: &SparseGrid<P>) -> f32 {
+    let one_way = |a: &SparseGrid<P>, b: &SparseGrid<P>| {
+        a.blocks()
+            .par_iter()
+            .map(|block| {
+                let base = block.coord * BLOCK_DIM;
+                let mut m = 0.0f32;
+                for (offset, v) in block.values.iter().enumerate() {
+                    let f = v.to_f32();
+                    let g = b.value(base + offset_coords(offset));
+                    if f.abs() < 1.0 || g.abs() < 1.0 {
+                        m = m.max((f - g).abs());
+                    }
+                }
+                m
+            })
+            .reduce(|| 0.0, f32::max)
+    };
+    one_way(before, after).max(one_way(after, before))
+}
+
+/// A skin whose storage was chosen at run time.
+pub enum AnySkin {
+    F32(Skin<f32>),
+    Fixed16(Skin<Fixed16>),
+}
+
+macro_rules! each {
+    ($self:expr, $s:ident => $body:expr) => {
+        match $self {
+            AnySkin::F32($s) => $body,
+            AnySkin::Fixed16($s) => $body,
+        }
+    };
+}
+
+impl AnySkin {
+    pub fn new(start: &dyn Target, params: SkinParams) -> Self {
+        match params.precision {
+            Precision::F32 => AnySkin::F32(Skin::new(start, params)),
+            Precision::Fixed16 => AnySkin::Fixed16(Skin::new(start, params)),
+        }
+    }
+    pub fn advance(&mut self, target: &dyn Target, duration: f64) -> StepStats {
+        each!(self, s => s.advance(target, duration))
+    }
+    pub fn stats(&self) -> StepStats {
+        each!(self, s => s.stats())
+    }
+    pub fn mesh(&self) -> &Mesh {
+        each!(self, s => s.mesh())
+    }
+    pub fn to_level_set(&self) -> GridData {
+        each!(self, s => s.to_level_set())
+    }
+    pub fn time(&self) -> f64 {
+        each!(self, s => s.time())
+    }
+    pub fn memory_bytes(&self) -> usize {
+        each!(self, s => s.memory_bytes())
+    }
+    pub fn set_speed(&mut self, speed: SpeedParams) {
+        each!(self, s => s.set_speed(speed))
+    }
+}

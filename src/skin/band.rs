@@ -1,0 +1,171 @@
+//! Upkeep of the tube of active nodes (paper §4.1, §4.5): wake, retire, renormalise.
+
+use glam::IVec3;
+use rayon::prelude::*;
+
+use crate::grid::{
+    node_offset, offset_coords, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES,
+};
+
+#[inline]
+fn in_band(f: f32) -> bool {
+    f.abs() < 1.0
+}
+
+/// After an update: every node with |f| < 1 gets its six neighbours stored (a woken node
+/// starts at its tile's side, ±1); the active set becomes those nodes and their
+/// neighbours; blocks left with no active node retire into inside / outside tiles.
+pub fn upkeep<P: Potential>(grid: &mut SparseGrid<P>) {
+    // Which face neighbours each block needs: bit 2·axis for −, 2·axis + 1 for +.
+    let wake: Vec<(IVec3, u8)> = grid
+        .blocks()
+        .par_iter()
+        .map(|block| {
+            let mut faces = 0u8;
+            for (offset, v) in block.values.iter().enumerate() {
+                if !in_band(v.to_f32()) {
+                    continue;
+                }
+                let l = offset_coords(offset);
+                for axis in 0..3 {
+                    if l[axis] == 0 {
+                        faces |= 1 << (2 * axis);
+                    }
+                    if l[axis] == BLOCK_DIM - 1 {
+                        faces |= 1 << (2 * axis + 1);
+                    }
+                }
+            }
+            (block.coord, faces)
+        })
+        .collect();
+    for (coord, faces) in wake {
+        for axis in 0..3 {
+            for (bit, step) in [(2 * axis, -1), (2 * axis + 1, 1)] {
+                if faces >> bit & 1 == 1 {
+                    grid.touch(coord + IVec3::AXES[axis] * step);
+                }
+            }
+        }
+    }
+
+    let masks: Vec<[u64; 8]> = grid
+        .blocks()
+        .par_iter()
+        .map_init(Box::<Halo>::default, |halo, block| {
+            halo.gather(grid, block.coord);
+            let mut mask = [0u64; 8];
+            for offset in 0..BLOCK_NODES {
+                let l = offset_coords(offset);
+                let near = in_band(halo.at(l.x, l.y, l.z))
+                    || (0..3).any(|axis| {
+                        let e = IVec3::AXES[axis];
+                        let (a, b) = (l - e, l + e);
+                        in_band(halo.at(a.x, a.y, a.z)) || in_band(halo.at(b.x, b.y, b.z))
+                    });
+                if near {
+                    mask[offset >> 6] |= 1 << (offset & 63);
+                }
+            }
+            mask
+        })
+        .collect();
+    for (block, mask) in grid.blocks_mut().iter_mut().zip(masks) {
+        block.active = mask;
+    }
+    grid.retire_blocks(|b| b.active_count() == 0);
+}
+
+/// One Jacobi sweep of the Godunov upwind scheme for |∇f| = 1/w, over active nodes not
+/// next to the skin (those define it and keep their values). Keeps the potential a
+/// scaled signed distance, which the paper leaves to drift (§4.1); `scratch` is reused.
+pub fn renormalize<P: Potential>(
+    grid: &mut SparseGrid<P>,
+    band_width: f32,
+    scratch: &mut Vec<[f32; BLOCK_NODES]>,
+) {
+    let h = 1.0 / band_width;
+    scratch.resize(grid.block_count(), [0.0; BLOCK_NODES]);
+    let grid_ref = &*grid;
+    scratch
+        .par_iter_mut()
+        .zip(grid_ref.blocks().par_iter())
+        .for_each_init(Box::<Halo>::default, |halo, (out, block)| {
+            halo.gather(grid_ref, block.coord);
+            for offset in 0..BLOCK_NODES {
+                let l = offset_coords(offset);
+                let f = halo.at(l.x, l.y, l.z);
+                out[offset] = f;
+                if !block.is_active(offset) {
+                    continue;
+                }
+                let s = if f < 0.0 { -1.0 } else { 1.0 };
+                let mut a = [0.0f32; 3];
+                let mut frozen = false;
+                for axis in 0..3 {
+                    let e = IVec3::AXES[axis];
+                    let (lo, hi) = (l - e, l + e);
+                    let (fl, fh) = (halo.at(lo.x, lo.y, lo.z), halo.at(hi.x, hi.y, hi.z));
+                    if (fl < 0.0) != (f < 0.0) || (fh < 0.0) != (f < 0.0) {
+                        frozen = true;
+                        break;
+                    }
+                    a[axis] = (s * fl).min(s * fh);
+                }
+                if !frozen {
+                    out[offset] = s * godunov(a, h).min(1.0);
+                }
+            }
+        });
+    for (block, values) in grid.blocks_mut().iter_mut().zip(scratch.iter()) {
+        for (v, &f) in block.values.iter_mut().zip(values.iter()) {
+            *v = P::from_f32(f);
+        }
+    }
+}
+
+/// Smallest u with Σ max(u − a_i, 0)² = h² (the upwind Eikonal update).
+fn godunov(mut a: [f32; 3], h: f32) -> f32 {
+    a.sort_unstable_by(f32::total_cmp);
+    let u = a[0] + h;
+    if u <= a[1] {
+        return u;
+    }
+    let u = 0.5 * (a[0] + a[1] + (2.0 * h * h - (a[0] - a[1]).powi(2)).max(0.0).sqrt());
+    if u <= a[2] {
+        return u;
+    }
+    let s = a[0] + a[1] + a[2];
+    let q = a[0] * a[0] + a[1] * a[1] + a[2] * a[2];
+    (s + (s * s - 3.0 * (q - h * h)).max(0.0).sqrt()) / 3.0
+}
+
+/// Sets every node of the blocks to `value(global node)`, clamped; used to start a skin.
+pub fn fill<P: Potential>(grid: &mut SparseGrid<P>, value: impl Fn(IVec3) -> f32 + Sync) {
+    grid.blocks_mut().par_iter_mut().for_each(|block| {
+        let base = block.coord * BLOCK_DIM;
+        for x in 0..BLOCK_DIM {
+            for y in 0..BLOCK_DIM {
+                for z in 0..BLOCK_DIM {
+                    let f = value(base + IVec3::new(x, y, z)).clamp(-1.0, 1.0);
+                    block.values[node_offset(x, y, z)] = P::from_f32(f);
+                }
+            }
+        }
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::godunov;
+
+    #[test]
+    fn godunov_solves_the_eikonal_update() {
+        assert!((godunov([0.0, 1.0, 1.0], 0.25) - 0.25).abs() < 1e-6);
+        // Diagonal: two equal upwind neighbours give a + h/√2.
+        let u = godunov([0.0, 0.0, 1.0], 0.25);
+        assert!((u - 0.25 / 2f32.sqrt()).abs() < 1e-6, "{u}");
+        let u = godunov([0.0, 0.0, 0.0], 0.3);
+        assert!((u - 0.3 / 3f32.sqrt()).abs() < 1e-6, "{u}");
+    }
+}

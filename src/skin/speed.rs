@@ -1,0 +1,147 @@
+//! The normal speed of the skin (paper §3.4, eq. 2–3, §4.3, §5):
+//! `V = α (G(X̃) − iso) − β κ + γ_A (A0 − A)/A0 + γ_V (V0 − Vol)/V0`.
+
+use glam::{IVec3, Vec3};
+
+use crate::polygonize::Crossings;
+use crate::stencil::Stencil;
+use crate::target::Target;
+
+/// Where the attraction term reads the target (§4.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum AttractionSample {
+    /// At the average of the last mesh's crossing points on the node's incident edges
+    /// (§4.3.2); nodes without one use their projection onto the skin.
+    #[default]
+    Crossings,
+    /// At the node itself: the naive choice of §4.3.1, which oscillates forever.
+    Node,
+}
+
+/// The physical parameters of the skin.
+#[derive(Debug, Clone, Copy)]
+pub struct SpeedParams {
+    /// Attraction rate α (1/s): the skin moves at α × its distance to the target.
+    pub alpha: f32,
+    /// Surface tension β (world units²/s): speed −βκ.
+    pub beta: f32,
+    /// Area preservation gain γ_A (world units/s).
+    pub area_gain: f32,
+    /// Volume preservation gain γ_V (world units/s).
+    pub volume_gain: f32,
+    pub attraction: AttractionSample,
+}
+
+impl Default for SpeedParams {
+    fn default() -> Self {
+        SpeedParams {
+            alpha: 2.0,
+            beta: 0.0,
+            area_gain: 0.0,
+            volume_gain: 0.0,
+            attraction: AttractionSample::Crossings,
+        }
+    }
+}
+
+/// Terms of V that are the same at every node in a step.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct GlobalTerms {
+    /// γ_A (A0 − A)/A0 + γ_V (V0 − Vol)/V0
+    pub preservation: f32,
+}
+
+impl GlobalTerms {
+    pub fn new(params: &SpeedParams, area: (f64, f64), volume: (f64, f64)) -> Self {
+        let relative = |(now, rest): (f64, f64)| {
+            if rest.abs() > 0.0 {
+                ((rest - now) / rest) as f32
+            } else {
+                0.0
+            }
+        };
+        GlobalTerms {
+            preservation: params.area_gain * relative(area) + params.volume_gain * relative(volume),
+        }
+    }
+}
+
+/// What the speed of one node needs to know about where it is.
+pub struct NodeContext<'a> {
+    /// Global index of the node.
+    pub ijk: IVec3,
+    /// Its world position.
+    pub world: Vec3,
+    /// World position of an index-space point.
+    pub to_world: &'a dyn Fn(Vec3) -> Vec3,
+    pub dx: f32,
+}
+
+/// The target's signed distance at the node's closest skin point X̃ (§4.3).
+pub fn attraction_distance(
+    params: &SpeedParams,
+    stencil: &Stencil,
+    grad: Vec3,
+    node: &NodeContext,
+    crossings: &Crossings,
+    crossing_distance: &[f32],
+    target: &dyn Target,
+) -> f32 {
+    if params.attraction == AttractionSample::Node {
+        return target.distance(node.world);
+    }
+    let f = stencil.center();
+    let mut sum = 0.0;
+    let mut n = 0;
+    for axis in 0..3 {
+        let e = IVec3::AXES[axis];
+        let (lo, hi) = neighbours(stencil, axis);
+        if (f < 0.0) != (hi < 0.0) {
+            if let Some(v) = crossings.vertex(node.ijk, axis) {
+                sum += crossing_distance[v as usize];
+                n += 1;
+            }
+        }
+        if (f < 0.0) != (lo < 0.0) {
+            if let Some(v) = crossings.vertex(node.ijk - e, axis) {
+                sum += crossing_distance[v as usize];
+                n += 1;
+            }
+        }
+    }
+    if n > 0 {
+        return sum / n as f32;
+    }
+    // No incident crossing: the node's projection onto the skin, X − f ∇f/|∇f|².
+    let g2 = grad.length_squared();
+    let projected = if g2 > 1e-12 {
+        node.ijk.as_vec3() - grad * (f / g2)
+    } else {
+        node.ijk.as_vec3()
+    };
+    target.distance((node.to_world)(projected))
+}
+
+#[inline]
+fn neighbours(stencil: &Stencil, axis: usize) -> (f32, f32) {
+    let v = &stencil.v;
+    match axis {
+        0 => (v[0][1][1], v[2][1][1]),
+        1 => (v[1][0][1], v[1][2][1]),
+        _ => (v[1][1][0], v[1][1][2]),
+    }
+}
+
+/// V at a node, world units per second (positive: the skin moves outward there).
+#[inline]
+pub fn normal_speed(
+    params: &SpeedParams,
+    global: &GlobalTerms,
+    target_distance: f32,
+    curvature_index: Option<f32>,
+    dx: f32,
+) -> f32 {
+    let kappa = curvature_index.unwrap_or(0.0) / dx;
+    // G − iso = −(signed distance): inside the target the skin inflates.
+    params.alpha * (-target_distance) - params.beta * kappa + global.preservation
+}

@@ -1,0 +1,74 @@
+//! What the skin is attracted to (paper §3.4): VDB level sets and fog volumes, analytic
+//! shapes, skeleton blobs, and unions of them.
+
+mod shapes;
+mod vdb;
+
+use glam::Vec3;
+
+pub use shapes::{Blobs, BoxShape, Skeleton, Sphere, Torus, Union};
+pub use vdb::{FogTarget, LevelSetTarget};
+
+/// An axis-aligned box in world space.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Aabb {
+    pub fn union(self, other: Aabb) -> Aabb {
+        Aabb {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+
+    pub fn padded(self, by: f32) -> Aabb {
+        Aabb {
+            min: self.min - Vec3::splat(by),
+            max: self.max + Vec3::splat(by),
+        }
+    }
+}
+
+/// A target surface. `distance` is signed, negative inside, in world units: exact for
+/// level sets and analytic shapes; for density fields, (iso − G)/|∇G|, the first-order
+/// distance to the iso-surface, so that α is a rate (1/s) whatever the target.
+pub trait Target: Sync {
+    fn distance(&self, p: Vec3) -> f32;
+    /// A box holding the whole inside of the target.
+    fn bounds(&self) -> Aabb;
+}
+
+impl<T: Target + ?Sized> Target for &T {
+    fn distance(&self, p: Vec3) -> f32 {
+        (**self).distance(p)
+    }
+    fn bounds(&self) -> Aabb {
+        (**self).bounds()
+    }
+}
+
+impl<T: Target + ?Sized> Target for Box<T> {
+    fn distance(&self, p: Vec3) -> f32 {
+        (**self).distance(p)
+    }
+    fn bounds(&self) -> Aabb {
+        (**self).bounds()
+    }
+}
+
+/// First-order distance to the iso-surface `g = iso` of a density `g` (larger inside):
+/// (iso − g(p)) / |∇g(p)|, with a central-difference gradient of step `h`.
+pub(crate) fn density_distance(g: impl Fn(Vec3) -> f32, iso: f32, p: Vec3, h: f32) -> f32 {
+    let grad = Vec3::new(
+        g(p + Vec3::X * h) - g(p - Vec3::X * h),
+        g(p + Vec3::Y * h) - g(p - Vec3::Y * h),
+        g(p + Vec3::Z * h) - g(p - Vec3::Z * h),
+    ) / (2.0 * h);
+    let value = iso - g(p);
+    // Far from the surface the gradient fades; cap the estimate instead of dividing by ~0.
+    let norm = grad.length().max(value.abs() * 0.25).max(1e-6);
+    value / norm
+}

@@ -1,0 +1,145 @@
+//! Targets read from VDB grids: a level set (signed distance, trilinear) or a fog volume
+//! with an iso value.
+
+use super::{density_distance, Aabb, Target};
+use crate::vdb::{GridData, LEAF_VOXELS};
+use glam::{IVec3, Vec3};
+use hashbrown::HashMap;
+
+/// Voxel lookup over a grid copied from VDB, with its tiles.
+struct Sampler {
+    leaves: HashMap<IVec3, u32>,
+    values: Vec<f32>,
+    /// Tiles by size (8, 128, 4096), keyed by origin.
+    tiles: [HashMap<IVec3, f32>; 3],
+    background: f32,
+    origin: Vec3,
+    inv_dx: f32,
+    bounds: Aabb,
+}
+
+const TILE_DIMS: [i32; 3] = [8, 128, 4096];
+
+impl Sampler {
+    fn new(data: &GridData) -> Self {
+        let leaves = data
+            .leaf_origins
+            .iter()
+            .enumerate()
+            .map(|(i, o)| (IVec3::from_array(*o), i as u32))
+            .collect();
+        let mut tiles: [HashMap<IVec3, f32>; 3] = Default::default();
+        for t in &data.tiles {
+            if let Some(level) = TILE_DIMS.iter().position(|&d| d as u32 == t.dim) {
+                tiles[level].insert(IVec3::from_array(t.origin), t.value);
+            }
+        }
+        let dx = data.transform.voxel_size() as f32;
+        let m = &data.transform.matrix;
+        let origin = Vec3::new(m[12] as f32, m[13] as f32, m[14] as f32);
+        // Bounds of stored leaves and tiles: everything beyond is background.
+        let mut lo = IVec3::splat(i32::MAX);
+        let mut hi = IVec3::splat(i32::MIN);
+        for o in &data.leaf_origins {
+            lo = lo.min(IVec3::from_array(*o));
+            hi = hi.max(IVec3::from_array(*o) + 8);
+        }
+        for t in &data.tiles {
+            lo = lo.min(IVec3::from_array(t.origin));
+            hi = hi.max(IVec3::from_array(t.origin) + t.dim as i32);
+        }
+        if lo.x > hi.x {
+            lo = IVec3::ZERO;
+            hi = IVec3::ZERO;
+        }
+        let bounds = Aabb {
+            min: origin + lo.as_vec3() * dx,
+            max: origin + hi.as_vec3() * dx,
+        };
+        Sampler {
+            leaves,
+            values: data.leaf_values.clone(),
+            tiles,
+            background: data.background,
+            origin,
+            inv_dx: 1.0 / dx,
+            bounds,
+        }
+    }
+
+    fn voxel(&self, ijk: IVec3) -> f32 {
+        if let Some(&leaf) = self.leaves.get(&(ijk & !7)) {
+            let l = ijk & 7;
+            let offset = ((l.x << 6) | (l.y << 3) | l.z) as usize;
+            return self.values[leaf as usize * LEAF_VOXELS + offset];
+        }
+        for (level, &dim) in TILE_DIMS.iter().enumerate() {
+            if let Some(&v) = self.tiles[level].get(&(ijk & !(dim - 1))) {
+                return v;
+            }
+        }
+        self.background
+    }
+
+    fn trilinear(&self, p: Vec3) -> f32 {
+        let q = (p - self.origin) * self.inv_dx;
+        let base = q.floor();
+        let t = q - base;
+        let b = base.as_ivec3();
+        let mut acc = 0.0;
+        for corner in 0..8 {
+            let d = IVec3::new(corner >> 2, (corner >> 1) & 1, corner & 1);
+            let w = (if d.x == 1 { t.x } else { 1.0 - t.x })
+                * (if d.y == 1 { t.y } else { 1.0 - t.y })
+                * (if d.z == 1 { t.z } else { 1.0 - t.z });
+            acc += w * self.voxel(b + d);
+        }
+        acc
+    }
+}
+
+/// A narrow-band level set: signed distance in world units, negative inside.
+pub struct LevelSetTarget {
+    sampler: Sampler,
+}
+
+impl LevelSetTarget {
+    pub fn new(data: &GridData) -> Self {
+        LevelSetTarget {
+            sampler: Sampler::new(data),
+        }
+    }
+}
+
+impl Target for LevelSetTarget {
+    fn distance(&self, p: Vec3) -> f32 {
+        self.sampler.trilinear(p)
+    }
+    fn bounds(&self) -> Aabb {
+        self.sampler.bounds
+    }
+}
+
+/// A fog volume (density, larger inside) and the iso value of its surface.
+pub struct FogTarget {
+    sampler: Sampler,
+    iso: f32,
+    dx: f32,
+}
+
+impl FogTarget {
+    pub fn new(data: &GridData, iso: f32) -> Self {
+        let sampler = Sampler::new(data);
+        let dx = 1.0 / sampler.inv_dx;
+        FogTarget { sampler, iso, dx }
+    }
+}
+
+impl Target for FogTarget {
+    fn distance(&self, p: Vec3) -> f32 {
+        density_distance(|q| self.sampler.trilinear(q), self.iso, p, 0.5 * self.dx)
+    }
+    fn bounds(&self) -> Aabb {
+        self.sampler.bounds
+    }
+}

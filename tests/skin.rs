@@ -1,0 +1,271 @@
+//! The active skin against analytic oracles (paper §3–§5). Run in release mode.
+
+use std::f64::consts::PI;
+
+use activeskin::grid::Precision;
+use activeskin::mesh::Mesh;
+use activeskin::skin::{AttractionSample, Skin, SkinParams, SpeedParams};
+use activeskin::target::{Blobs, BoxShape, Sphere, Target, Torus, Union};
+use activeskin::vdb::Grid;
+use glam::Vec3;
+
+const DX: f32 = 1.0 / 32.0;
+const FRAME: f64 = 1.0 / 24.0;
+
+fn params(alpha: f32, beta: f32) -> SkinParams {
+    SkinParams {
+        dx: DX,
+        speed: SpeedParams {
+            alpha,
+            beta,
+            ..SpeedParams::default()
+        },
+        ..SkinParams::default()
+    }
+}
+
+fn sphere(radius: f32) -> Sphere {
+    Sphere {
+        center: Vec3::ZERO,
+        radius,
+    }
+}
+
+/// Closed, manifold, wound outward.
+fn assert_watertight(mesh: &Mesh, when: &str) {
+    let topology = mesh.topology();
+    assert!(topology.closed, "{when}: mesh not closed");
+    assert!(topology.manifold, "{when}: mesh not manifold");
+    assert!(mesh.volume() > 0.0, "{when}: mesh wound inward");
+}
+
+/// Mean and max distance of the mesh vertices to a target, in voxels.
+fn distance_voxels(mesh: &Mesh, target: &dyn Target) -> (f64, f64) {
+    let d: Vec<f64> = mesh
+        .positions
+        .iter()
+        .map(|&p| f64::from(target.distance(p).abs() / DX))
+        .collect();
+    let mean = d.iter().sum::<f64>() / d.len() as f64;
+    (mean, d.iter().cloned().fold(0.0, f64::max))
+}
+
+fn radius_from_volume(volume: f64) -> f64 {
+    (3.0 * volume / (4.0 * PI)).cbrt()
+}
+
+#[test]
+fn sphere_to_torus_opens_the_hole() {
+    let torus = Torus {
+        center: Vec3::ZERO,
+        major: 0.6,
+        minor: 0.25,
+    };
+    let mut skin: Skin<f32> = Skin::new(&sphere(0.7), params(4.0, 0.0));
+    assert_eq!(skin.stats().euler_characteristic, 2);
+    for frame in 0..48 {
+        skin.advance(&torus, FRAME);
+        if frame % 6 == 0 {
+            assert_watertight(skin.mesh(), &format!("frame {frame}"));
+        }
+    }
+    let stats = skin.stats();
+    let (mean, max) = distance_voxels(skin.mesh(), &torus);
+    assert!(mean <= 0.1, "mean distance {mean} voxel");
+    assert!(max <= 0.5, "max distance {max} voxel");
+    assert_eq!(stats.euler_characteristic, 0, "the hole did not open");
+    assert_eq!(stats.components, 1);
+    assert_watertight(skin.mesh(), "end");
+}
+
+/// Largest |Δφ| per step, in voxels, over the last steps once the skin has settled.
+fn settle_on_sphere(attraction: AttractionSample) -> f32 {
+    let target = sphere(0.5);
+    let mut p = params(4.0, 0.0);
+    p.speed.attraction = attraction;
+    let mut skin: Skin<f32> = Skin::new(&sphere(0.55), p);
+    skin.advance(&target, 1.5);
+    skin.track_change(true);
+    let dt = skin.stable_dt(&target);
+    let mut worst = 0.0f32;
+    for _ in 0..20 {
+        skin.step(&target, dt);
+        worst = worst.max(skin.stats().max_change_voxels);
+    }
+    worst
+}
+
+#[test]
+fn at_rest_on_a_static_target() {
+    let change = settle_on_sphere(AttractionSample::Crossings);
+    assert!(change < 1e-4, "skin still moves {change} voxel per step");
+    // §4.3.1: with G taken at the nodes, the skin never comes to rest.
+    let naive = settle_on_sphere(AttractionSample::Node);
+    assert!(naive > 100.0 * change.max(1e-6), "no oscillation: {naive}");
+}
+
+#[test]
+fn tension_alone_shrinks_a_sphere() {
+    let mut skin: Skin<f32> = Skin::new(&sphere(0.5), params(0.0, 0.01));
+    let far = sphere(0.5); // ignored: α = 0
+    let mut last = radius_from_volume(skin.stats().volume);
+    for _ in 0..6 {
+        let r = radius_from_volume(skin.advance(&far, 0.25).volume);
+        assert!(r < last, "sphere did not shrink: {r} ≥ {last}");
+        last = r;
+    }
+    // Mean-curvature flow: r² = r0² − 4βt.
+    let expected = (0.25f64 - 4.0 * 0.01 * 1.5).sqrt();
+    assert!(
+        (last - expected).abs() / expected < 0.02,
+        "{last} vs {expected}"
+    );
+}
+
+#[test]
+fn tension_equilibrium_matches_alpha_r_beta() {
+    let (alpha, big_r, beta) = (2.0f64, 0.5f64, 0.0225f64);
+    // α(R − r) = 2β/r  ⇒  r = (R + √(R² − 8β/α)) / 2
+    let expected = (big_r + (big_r * big_r - 8.0 * beta / alpha).sqrt()) / 2.0;
+    let mut skin: Skin<f32> = Skin::new(&sphere(0.5), params(alpha as f32, beta as f32));
+    let stats = skin.advance(&sphere(big_r as f32), 4.0);
+    let r = radius_from_volume(stats.volume);
+    assert!(
+        (r - expected).abs() / expected < 0.01,
+        "rest radius {r}, expected {expected}"
+    );
+    assert_watertight(skin.mesh(), "equilibrium");
+}
+
+#[test]
+fn fig7_six_points_to_two_spheres_splits_after_a_filament() {
+    let target = Union::fig7_spheres();
+    let mut skin: Skin<f32> = Skin::new(&Blobs::fig7_points(), params(2.0, 0.01));
+    assert_eq!(skin.stats().components, 1);
+    let mut filament_frames = 0;
+    let mut split_at = None;
+    for frame in 0..96 {
+        let stats = skin.advance(&target, FRAME);
+        if stats.components == 1 {
+            let xs = skin.mesh().positions.iter().map(|p| p.x);
+            let (lo, hi) = xs.fold((f32::MAX, f32::MIN), |(a, b), x| (a.min(x), b.max(x)));
+            // One body reaching into both spheres, joined across the gap: a filament.
+            if lo < -0.5 && hi > 0.5 && split_at.is_none() {
+                filament_frames += 1;
+            }
+        } else if split_at.is_none() {
+            split_at = Some(frame);
+        }
+        if frame % 8 == 0 {
+            assert_watertight(skin.mesh(), &format!("fig7 frame {frame}"));
+        }
+    }
+    assert!(split_at.is_some(), "never split");
+    assert!(
+        filament_frames >= 3,
+        "no filament stage ({filament_frames} frames)"
+    );
+    let stats = skin.stats();
+    assert_eq!(stats.components, 2);
+    assert_eq!(stats.euler_characteristic, 4);
+}
+
+#[test]
+fn volume_term_holds_volume_during_a_morph() {
+    let v0 = 4.0 / 3.0 * PI * 0.5f64.powi(3);
+    for change in [1.2f64, 0.8] {
+        // A cube whose volume differs from the sphere's by ±20 %.
+        let half = ((v0 * change).cbrt() / 2.0) as f32;
+        let target = BoxShape {
+            center: Vec3::ZERO,
+            half_size: Vec3::splat(half),
+        };
+        let mut p = params(2.0, 0.0);
+        p.speed.volume_gain = 40.0;
+        let mut skin: Skin<f32> = Skin::new(&sphere(0.5), p);
+        let rest = skin.stats().volume;
+        let mut worst = 0.0f64;
+        for _ in 0..48 {
+            let v = skin.advance(&target, FRAME).volume;
+            worst = worst.max((v - rest).abs() / rest);
+        }
+        assert!(
+            worst <= 0.005,
+            "volume drifted {:.3} % (target {change})",
+            worst * 100.0
+        );
+    }
+}
+
+#[test]
+fn fixed16_agrees_with_f32_in_half_the_memory() {
+    let target = Torus {
+        center: Vec3::ZERO,
+        major: 0.5,
+        minor: 0.25,
+    };
+    let run = |precision| {
+        let mut p = params(4.0, 0.002);
+        p.precision = precision;
+        let mut skin = activeskin::skin::AnySkin::new(&sphere(0.7), p);
+        skin.advance(&target, 1.5);
+        skin
+    };
+    let (a, b) = (run(Precision::F32), run(Precision::Fixed16));
+    let (la, lb) = (a.to_level_set(), b.to_level_set());
+    assert_eq!(la.leaf_origins.len(), lb.leaf_origins.len());
+    let mut worst = 0.0f32;
+    let sampler_b = activeskin::target::LevelSetTarget::new(&lb);
+    for (leaf, origin) in la.leaf_origins.iter().enumerate() {
+        for (offset, &va) in la.leaf_values(leaf).iter().enumerate() {
+            if va.abs() < 0.5 * la.background {
+                let ijk = Vec3::new(
+                    (origin[0] + (offset as i32 >> 6)) as f32,
+                    (origin[1] + ((offset as i32 >> 3) & 7)) as f32,
+                    (origin[2] + (offset as i32 & 7)) as f32,
+                );
+                let vb = sampler_b.distance(ijk * DX);
+                worst = worst.max((va - vb).abs() / DX);
+            }
+        }
+    }
+    assert!(worst < 1e-3, "fixed16 differs by {worst} voxel");
+    let ratio = b.memory_bytes() as f64 / a.memory_bytes() as f64;
+    assert!(
+        ratio <= 0.55,
+        "fixed16 uses {:.0} % of f32's memory",
+        ratio * 100.0
+    );
+}
+
+#[test]
+fn exported_level_set_passes_openvdb_checks() {
+    let torus = Torus {
+        center: Vec3::new(0.1, -0.05, 0.0),
+        major: 0.6,
+        minor: 0.25,
+    };
+    let mut skin: Skin<f32> = Skin::new(&sphere(0.7), params(4.0, 0.001));
+    skin.advance(&torus, 1.5);
+    let data = skin.to_level_set();
+    assert_eq!(data.name, "surface");
+    assert!((data.background - 3.0 * DX).abs() < 1e-7);
+    let grid = Grid::from_data(&data).unwrap();
+    assert_eq!(grid.check_level_set().unwrap(), Ok(()));
+    let ours = skin.stats();
+    let theirs = grid.measure_level_set().unwrap();
+    assert_eq!(theirs.euler_characteristic, 0);
+    assert!(
+        (theirs.area - ours.area).abs() / ours.area < 0.01,
+        "{} vs {}",
+        theirs.area,
+        ours.area
+    );
+    assert!((theirs.volume - ours.volume).abs() / ours.volume < 0.01);
+    let torus_area = 4.0 * PI * PI * 0.6 * 0.25;
+    assert!(
+        (ours.area - torus_area).abs() / torus_area < 0.01,
+        "{}",
+        ours.area
+    );
+}
