@@ -61,7 +61,8 @@ pub struct StepStats {
     pub volume: f64,
     pub euler_characteristic: i64,
     pub components: usize,
-    /// Largest |Δf| of the last sub-step, in voxels (|Δφ| / Δx).
+    /// Largest |Δφ| / Δx of the last sub-step within w − 1 voxels of the skin (measured
+    /// only when [`Skin::track_change`] is on).
     pub max_change_voxels: f32,
 }
 
@@ -197,12 +198,7 @@ impl<P: Potential> Skin<P> {
         let mut substeps = 0;
         while remaining > 0.0 {
             let v_max = self.compute_rates(target);
-            let stable = timestep::stable_dt(
-                self.params.dx,
-                v_max,
-                self.params.speed.beta,
-                self.params.safety,
-            );
+            let stable = self.dt_bound(v_max);
             let dt = timestep::next_substep(remaining, stable);
             self.apply_rates(dt as f32);
             self.time += dt;
@@ -226,10 +222,30 @@ impl<P: Potential> Skin<P> {
     /// The largest stable time step for the current state against `target`.
     pub fn stable_dt(&mut self, target: &dyn Target) -> f32 {
         let v_max = self.compute_rates(target);
+        self.dt_bound(v_max)
+    }
+
+    /// §4.8's bound, with the relaxation rates of the attraction (α), the volume term
+    /// (γ_V·A/V0: a uniform speed changes the volume at A per unit) and the area term
+    /// (γ_A·κ̄ with κ̄ ≈ 2/r of the sphere of the same area).
+    fn dt_bound(&self, v_max: f32) -> f32 {
+        let speed = &self.params.speed;
+        let area = self.mesh.area().max(1e-12);
+        let volume_rate = if self.rest_volume > 0.0 {
+            speed.volume_gain * (area / self.rest_volume) as f32
+        } else {
+            0.0
+        };
+        let mean_curvature = 2.0 / (area / (4.0 * std::f64::consts::PI)).sqrt() as f32;
+        let relaxation = speed
+            .alpha
+            .max(volume_rate)
+            .max(speed.area_gain * mean_curvature);
         timestep::stable_dt(
             self.params.dx,
             v_max,
-            self.params.speed.beta,
+            speed.beta,
+            relaxation,
             self.params.safety,
         )
     }
@@ -272,6 +288,7 @@ impl<P: Potential> Skin<P> {
                         world: xf.apply(ijk.as_vec3()),
                         to_world: &to_world,
                         dx: params.dx,
+                        band_width: params.band_width,
                     };
                     let d = speed::attraction_distance(
                         &params.speed,
@@ -325,7 +342,7 @@ impl<P: Potential> Skin<P> {
             band::renormalize(&mut self.grid, w, &mut self.rates);
         }
         if let Some(before) = before {
-            self.last_change = max_change(&before, &self.grid) * w;
+            self.last_change = max_change(&before, &self.grid, w) * w;
         }
         self.polygonize();
     }
@@ -395,8 +412,11 @@ impl<P: Potential> Skin<P> {
     }
 }
 
-/// Largest |f_after − f_before| over nodes in the band of either grid.
-fn max_change<P: Potential>(before: &SparseGrid<P>, after: &SparseGrid<P>) -> f32 {
+/// Largest |f_after − f_before| over nodes within w − 1 voxels of the skin in either
+/// grid: those its position, normals and curvature are read from. (Nodes at the tube's
+/// outer edge flicker against the clamp at ±1 without touching the skin.)
+fn max_change<P: Potential>(before: &SparseGrid<P>, after: &SparseGrid<P>, band_width: f32) -> f32 {
+    let near = (band_width - 1.0) / band_width;
     let one_way = |a: &SparseGrid<P>, b: &SparseGrid<P>| {
         a.blocks()
             .par_iter()
@@ -406,7 +426,7 @@ fn max_change<P: Potential>(before: &SparseGrid<P>, after: &SparseGrid<P>) -> f3
                 for (offset, v) in block.values.iter().enumerate() {
                     let f = v.to_f32();
                     let g = b.value(base + offset_coords(offset));
-                    if f.abs() < 1.0 || g.abs() < 1.0 {
+                    if f.abs() < near || g.abs() < near {
                         m = m.max((f - g).abs());
                     }
                 }

@@ -100,6 +100,7 @@ impl Stencil {
 mod tests {
     use super::*;
 
+    #[allow(clippy::needless_range_loop)] // i, j, k are coordinates too
     fn sampled(f: impl Fn(f32, f32, f32) -> f32, p: Vec3) -> Stencil {
         let mut v = [[[0.0; 3]; 3]; 3];
         for i in 0..3 {

@@ -76,6 +76,8 @@ pub fn upkeep<P: Potential>(grid: &mut SparseGrid<P>) {
     grid.retire_blocks(|b| b.active_count() == 0);
 }
 
+// Node offsets and axes are coordinates here, not just indices.
+#[allow(clippy::needless_range_loop)]
 /// One Jacobi sweep of the Godunov upwind scheme for |∇f| = 1/w, over active nodes not
 /// next to the skin (those define it and keep their values). Keeps the potential a
 /// scaled signed distance, which the paper leaves to drift (§4.1); `scratch` is reused.

@@ -75,6 +75,8 @@ pub struct NodeContext<'a> {
     /// World position of an index-space point.
     pub to_world: &'a dyn Fn(Vec3) -> Vec3,
     pub dx: f32,
+    /// Half-width w of the tube, voxels.
+    pub band_width: f32,
 }
 
 /// The target's signed distance at the node's closest skin point X̃ (§4.3).
@@ -112,13 +114,22 @@ pub fn attraction_distance(
     if n > 0 {
         return sum / n as f32;
     }
-    // No incident crossing: the node's projection onto the skin, X − f ∇f/|∇f|².
+    // No incident crossing: the node's projection onto the skin, X − f ∇f/|∇f|². The
+    // skin is within the band (w voxels, f = ±1) of any band node: where the gradient
+    // flattens at the band's edge the step would overshoot, so it is capped there.
     let g2 = grad.length_squared();
-    let projected = if g2 > 1e-12 {
-        node.ijk.as_vec3() - grad * (f / g2)
+    let step = if g2 > 1e-12 {
+        grad * (f / g2)
     } else {
-        node.ijk.as_vec3()
+        Vec3::ZERO
     };
+    let limit = node.band_width * f.abs();
+    let step = if step.length() > limit {
+        step.normalize_or_zero() * limit
+    } else {
+        step
+    };
+    let projected = node.ijk.as_vec3() - step;
     target.distance((node.to_world)(projected))
 }
 

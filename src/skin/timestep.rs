@@ -1,20 +1,17 @@
 //! The time step (paper §4.8, eq. 5–6).
 
-/// `dt = safety · min(Δx / v_max, Δx² / (6β))`: the CFL bound keeps the skin from jumping
-/// a node in one step; the second keeps explicit tension stable in 3-D (|∇φ| ≈ 1, κ the
-/// sum of principal curvatures).
-pub fn stable_dt(dx: f32, v_max: f32, beta: f32, safety: f32) -> f32 {
-    let hyperbolic = if v_max > 0.0 {
-        dx / v_max
-    } else {
-        f32::INFINITY
-    };
-    let parabolic = if beta > 0.0 {
-        dx * dx / (6.0 * beta)
-    } else {
-        f32::INFINITY
-    };
-    safety * hyperbolic.min(parabolic)
+/// `dt = safety · min(Δx / v_max, Δx² / (6β), 1 / relaxation)`: the CFL bound keeps the
+/// skin from jumping a node in one step; the second keeps explicit tension stable in 3-D
+/// (|∇φ| ≈ 1, κ the sum of principal curvatures). The paper stops there, but near rest
+/// v_max → 0 while the attraction still relaxes the distance at rate α (and the
+/// preservation terms the area and volume at their own rates): explicit Euler overshoots
+/// unless dt < 1/rate, so `relaxation` is the largest of those rates.
+pub fn stable_dt(dx: f32, v_max: f32, beta: f32, relaxation: f32, safety: f32) -> f32 {
+    let bound = |rate: f32, limit: f32| if rate > 0.0 { limit } else { f32::INFINITY };
+    let hyperbolic = bound(v_max, dx / v_max);
+    let parabolic = bound(beta, dx * dx / (6.0 * beta));
+    let relax = bound(relaxation, 1.0 / relaxation);
+    safety * hyperbolic.min(parabolic).min(relax)
 }
 
 /// The next sub-step toward `remaining`: a stable step, or exactly what is left when that
@@ -50,8 +47,9 @@ mod tests {
 
     #[test]
     fn tension_bound_applies() {
-        assert_eq!(stable_dt(0.1, 0.0, 0.0, 0.5), f32::INFINITY);
-        assert!((stable_dt(0.1, 0.0, 1.0, 1.0) - 0.01 / 6.0).abs() < 1e-9);
-        assert!((stable_dt(0.1, 2.0, 0.0, 0.5) - 0.025).abs() < 1e-9);
+        assert_eq!(stable_dt(0.1, 0.0, 0.0, 0.0, 0.5), f32::INFINITY);
+        assert!((stable_dt(0.1, 0.0, 1.0, 0.0, 1.0) - 0.01 / 6.0).abs() < 1e-9);
+        assert!((stable_dt(0.1, 2.0, 0.0, 0.0, 0.5) - 0.025).abs() < 1e-9);
+        assert!((stable_dt(0.1, 0.0, 0.0, 4.0, 0.5) - 0.125).abs() < 1e-9);
     }
 }
