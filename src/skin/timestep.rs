@@ -37,7 +37,7 @@ mod tests {
         let mut n = 0;
         while left > 0.0 {
             let dt = next_substep(left, 0.004);
-            assert!(dt > 0.0 && dt <= 0.004);
+            assert!(dt > 0.0 && dt <= f64::from(0.004f32));
             left -= dt;
             n += 1;
         }
