@@ -4,7 +4,7 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all deps build demo test lint clean
+.PHONY: all deps build demo test bench lint clean
 
 all: build
 
@@ -16,9 +16,13 @@ build: deps
 
 demo: build
 	@mkdir -p $(OUT)
-	$(CARGO) run --release --example sphere -- $(OUT)/sphere.vdb
-	./target/release/activeskin info $(OUT)/sphere.vdb
-	@echo "demo output written to ./$(OUT)"
+	./target/release/activeskin morph --from blobs:fig7 --to spheres:fig7 --frames 1-48 \
+		--out $(OUT)/fig7.####.vdb --mesh $(OUT)/fig7.####.obj
+	./target/release/activeskin info $(OUT)/fig7.0048.vdb
+	@echo "demo: Fig. 7 morph (six blobs to two spheres) in ./$(OUT): fig7.####.vdb and fig7.####.obj"
+
+bench: deps
+	$(CARGO) bench --bench step
 
 # Tests run optimised: they solve and mesh real grids.
 test: deps

@@ -1,6 +1,7 @@
 //! The `activeskin` command line. `anyhow` lives here only; the library has typed errors.
 
 mod info;
+mod morph;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -26,6 +27,8 @@ enum Command {
         #[arg(required = true)]
         files: Vec<PathBuf>,
     },
+    /// Morph a skin from one shape to another, writing a VDB (and mesh) sequence.
+    Morph(morph::MorphArgs),
 }
 
 /// Runs the command line; exit code 0 on success, 1 on bad data, 2 on bad usage (clap).
@@ -33,6 +36,7 @@ pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Info { files } => info::run(&files),
+        Command::Morph(args) => morph::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
