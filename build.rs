@@ -15,13 +15,11 @@ const REQUIRED: &[(&str, &str)] = &[
 
 const BRIDGE_SOURCES: &[&str] = &["cpp/vdb_bridge.cc", "cpp/vdb_tools.cc"];
 
-fn include_dirs() -> Vec<PathBuf> {
-    let mut dirs: Vec<PathBuf> = std::env::var_os("OPENVDB_INCLUDE_DIR")
+/// Folders named by `OPENVDB_INCLUDE_DIR` (a PATH-style list), searched before the system's.
+fn extra_include_dirs() -> Vec<PathBuf> {
+    std::env::var_os("OPENVDB_INCLUDE_DIR")
         .map(|d| std::env::split_paths(&d).collect())
-        .unwrap_or_default();
-    dirs.push("/usr/include".into());
-    dirs.push("/usr/local/include".into());
-    dirs
+        .unwrap_or_default()
 }
 
 fn main() {
@@ -30,7 +28,12 @@ fn main() {
     println!("cargo::rerun-if-env-changed=OPENVDB_INCLUDE_DIR");
     println!("cargo::rerun-if-env-changed=OPENVDB_LIB_DIR");
 
-    let dirs = include_dirs();
+    let extra = extra_include_dirs();
+    let system = [
+        PathBuf::from("/usr/include"),
+        PathBuf::from("/usr/local/include"),
+    ];
+    let dirs: Vec<&PathBuf> = extra.iter().chain(&system).collect();
     let found = |header: &str| dirs.iter().any(|d| Path::new(d).join(header).is_file());
     let missing: Vec<&str> = REQUIRED
         .iter()
@@ -55,12 +58,7 @@ fn main() {
         .flag_if_supported("-Wno-unused-parameter")
         // OpenVDB's headers are template-heavy; -O2 keeps volumeToMesh & co. fast in tests.
         .opt_level(2);
-    for dir in std::env::var_os("OPENVDB_INCLUDE_DIR")
-        .map(|d| std::env::split_paths(&d).collect::<Vec<_>>())
-        .unwrap_or_default()
-    {
-        build.include(dir);
-    }
+    build.includes(&extra);
     build.compile("activeskin_vdb_bridge");
 
     if let Some(lib_dir) = std::env::var_os("OPENVDB_LIB_DIR") {

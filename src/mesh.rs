@@ -137,21 +137,17 @@ impl Mesh {
                         .ok()
                         .map(|i| fan[i].2)
                 };
-                let mut at = fan[0].1;
-                for _ in 0..fan.len() {
+                // Back at the start after exactly one trip round: one fan, not several.
+                let start = fan[0].1;
+                let mut at = start;
+                let mut steps = 0;
+                loop {
                     match step(at) {
                         Some(n) => at = n,
                         None => return false,
                     }
-                }
-                // Back at the start after exactly one trip round: one fan, not several.
-                let mut steps = 0;
-                let start = fan[0].1;
-                let mut at = start;
-                loop {
-                    at = step(at).unwrap_or(start);
                     steps += 1;
-                    if at == start {
+                    if at == start || steps > fan.len() {
                         break;
                     }
                 }

@@ -163,40 +163,35 @@ impl Polygonizer {
         mesh: &mut Mesh,
         crossings: &mut Crossings,
     ) {
-        let blocks = grid.blocks();
-        self.work.resize_with(blocks.len(), BlockWork::default);
+        self.work
+            .resize_with(grid.block_count(), BlockWork::default);
 
         // Pass 1: the crossed edges owned by each block (lower node inside the block).
-        self.work
-            .par_iter_mut()
-            .zip(blocks.par_iter())
-            .for_each_init(Box::<Halo>::default, |halo, (work, block)| {
+        for_each_block(
+            &mut self.work,
+            grid,
+            |work, _| {
                 work.keys.clear();
                 work.positions.clear();
                 work.normals.clear();
-                if block.active_count() == 0 {
-                    return;
-                }
-                halo.gather(grid, block.coord);
-                let base = block.coord * BLOCK_DIM;
-                for offset in block.active_offsets() {
-                    let l = offset_coords(offset);
-                    let fa = halo.at(l.x, l.y, l.z);
-                    for axis in 0..3 {
-                        let m = l + IVec3::AXES[axis];
-                        let fb = halo.at(m.x, m.y, m.z);
-                        if inside(fa) == inside(fb) {
-                            continue;
-                        }
-                        let t = fa / (fa - fb);
-                        let p = l.as_vec3() + IVec3::AXES[axis].as_vec3() * t;
-                        let g = gradient(halo, l).lerp(gradient(halo, m), t);
-                        work.keys.push(edge_key(base + l, axis));
-                        work.positions.push(xf.apply((base).as_vec3() + p));
-                        work.normals.push(g.normalize_or_zero());
+            },
+            |work, halo, base, l| {
+                let fa = halo.at(l.x, l.y, l.z);
+                for axis in 0..3 {
+                    let m = l + IVec3::AXES[axis];
+                    let fb = halo.at(m.x, m.y, m.z);
+                    if inside(fa) == inside(fb) {
+                        continue;
                     }
+                    let t = fa / (fa - fb);
+                    let p = l.as_vec3() + IVec3::AXES[axis].as_vec3() * t;
+                    let g = gradient(halo, l).lerp(gradient(halo, m), t);
+                    work.keys.push(edge_key(base + l, axis));
+                    work.positions.push(xf.apply(base.as_vec3() + p));
+                    work.normals.push(g.normalize_or_zero());
                 }
-            });
+            },
+        );
 
         // Global vertex numbering, in block order.
         mesh.clear();
@@ -215,25 +210,42 @@ impl Polygonizer {
 
         // Pass 2: the cubes whose lower corner is an active node of the block.
         let by_edge = &crossings.by_edge;
-        self.work
-            .par_iter_mut()
-            .zip(blocks.par_iter())
-            .for_each_init(Box::<Halo>::default, |halo, (work, block)| {
-                work.triangles.clear();
-                if block.active_count() == 0 {
-                    return;
-                }
-                halo.gather(grid, block.coord);
-                let base = block.coord * BLOCK_DIM;
-                for offset in block.active_offsets() {
-                    let l = offset_coords(offset);
-                    cube_triangles(halo, l, base, by_edge, &mut work.triangles);
-                }
-            });
+        for_each_block(
+            &mut self.work,
+            grid,
+            |work, _| work.triangles.clear(),
+            |work, halo, base, l| {
+                cube_triangles(halo, l, base, by_edge, &mut work.triangles);
+            },
+        );
         for work in &self.work {
             mesh.triangles.extend_from_slice(&work.triangles);
         }
     }
+}
+
+/// Walks the blocks in parallel: `reset` each block's work, then, for blocks with active
+/// nodes, gathers the halo once and calls `visit` with (work, halo, block origin, local
+/// node) for every active node.
+fn for_each_block<P: Potential>(
+    work: &mut [BlockWork],
+    grid: &SparseGrid<P>,
+    reset: impl Fn(&mut BlockWork, IVec3) + Sync,
+    visit: impl Fn(&mut BlockWork, &Halo, IVec3, IVec3) + Sync,
+) {
+    work.par_iter_mut()
+        .zip(grid.blocks().par_iter())
+        .for_each_init(Box::<Halo>::default, |halo, (work, block)| {
+            reset(work, block.coord);
+            if block.active_count() == 0 {
+                return;
+            }
+            halo.gather(grid, block.coord);
+            let base = block.coord * BLOCK_DIM;
+            for offset in block.active_offsets() {
+                visit(work, halo, base, offset_coords(offset));
+            }
+        });
 }
 
 /// Gradient at a halo node; one-sided on the halo's far border.

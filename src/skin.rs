@@ -79,6 +79,9 @@ pub struct Skin<P> {
     polygonizer: Polygonizer,
     /// ∂f/∂t of each node, then scratch for renormalisation.
     rates: Vec<[f32; BLOCK_NODES]>,
+    /// Area and volume of the last mesh, measured once per polygonization.
+    area: f64,
+    volume: f64,
     rest_area: f64,
     rest_volume: f64,
     last_change: f32,
@@ -136,6 +139,8 @@ impl<P: Potential> Skin<P> {
             crossing_distance: Vec::new(),
             polygonizer: Polygonizer::default(),
             rates: Vec::new(),
+            area: 0.0,
+            volume: 0.0,
             rest_area: 0.0,
             rest_volume: 0.0,
             last_change: 0.0,
@@ -146,8 +151,8 @@ impl<P: Potential> Skin<P> {
             band::upkeep(&mut skin.grid);
         }
         skin.polygonize();
-        skin.rest_area = skin.mesh.area();
-        skin.rest_volume = skin.mesh.volume();
+        skin.rest_area = skin.area;
+        skin.rest_volume = skin.volume;
         skin
     }
 
@@ -183,8 +188,8 @@ impl<P: Potential> Skin<P> {
             substeps: 0,
             band_nodes: self.grid.active_node_count(),
             blocks: self.grid.block_count(),
-            area: self.mesh.area(),
-            volume: self.mesh.volume(),
+            area: self.area,
+            volume: self.volume,
             euler_characteristic: self.mesh.euler_characteristic(),
             components: self.mesh.components(),
             max_change_voxels: self.last_change,
@@ -230,7 +235,7 @@ impl<P: Potential> Skin<P> {
     /// (γ_A·κ̄ with κ̄ ≈ 2/r of the sphere of the same area).
     fn dt_bound(&self, v_max: f32) -> f32 {
         let speed = &self.params.speed;
-        let area = self.mesh.area().max(1e-12);
+        let area = self.area.max(1e-12);
         let volume_rate = if self.rest_volume > 0.0 {
             speed.volume_gain * (area / self.rest_volume) as f32
         } else {
@@ -261,8 +266,8 @@ impl<P: Potential> Skin<P> {
 
         let global = speed::GlobalTerms::new(
             &self.params.speed,
-            (self.mesh.area(), self.rest_area),
-            (self.mesh.volume(), self.rest_volume),
+            (self.area, self.rest_area),
+            (self.volume, self.rest_volume),
         );
         let grid = &self.grid;
         let params = &self.params;
@@ -356,6 +361,8 @@ impl<P: Potential> Skin<P> {
     fn polygonize(&mut self) {
         self.polygonizer
             .run(&self.grid, self.xf, &mut self.mesh, &mut self.crossings);
+        self.area = self.mesh.area();
+        self.volume = self.mesh.volume();
     }
 
     /// The skin as a narrow-band level set: signed distance φ = f·wΔx in world units,

@@ -169,7 +169,7 @@ impl Blobs {
 
 impl Target for Blobs {
     fn distance(&self, p: Vec3) -> f32 {
-        let far = self.bounds().padded(0.0);
+        let far = self.bounds();
         if p.cmplt(far.min).any() || p.cmpgt(far.max).any() {
             // No field out here: distance to the box is a safe lower bound.
             let q = (far.min - p).max(p - far.max).max(Vec3::ZERO);
