@@ -27,10 +27,11 @@
 //! wound with the normal pointing outward (toward φ > 0).
 
 use glam::{IVec3, Vec3};
-use hashbrown::HashMap;
 use rayon::prelude::*;
 
-use crate::grid::{offset_coords, Halo, Potential, SparseGrid, BLOCK_DIM};
+use crate::grid::{
+    node_offset, offset_coords, Block, BlockId, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES,
+};
 use crate::mesh::Mesh;
 
 /// Corners of each edge, ordered along its axis.
@@ -95,41 +96,93 @@ const fn edge_axis(e: usize) -> usize {
     e / 4
 }
 
-/// A crossed edge: the node at its lower end and its axis, packed into one integer.
-/// Node coordinates must lie within ±2¹⁹.
-#[inline]
-pub fn edge_key(node: IVec3, axis: usize) -> u64 {
-    const BIAS: i32 = 1 << 19;
-    let pack = |c: i32| ((c + BIAS) as u64) & 0xF_FFFF;
-    (pack(node.x) << 42) | (pack(node.y) << 22) | (pack(node.z) << 2) | axis as u64
+/// Words of a block's crossed-edge mask: bit 3·offset + axis is the edge from that node
+/// toward +axis.
+const EDGE_WORDS: usize = 3 * BLOCK_NODES / 64;
+
+/// The mesh vertices on the edges owned by one block's nodes, numbered in bit order from
+/// `first`: a lookup is a popcount, not a hash.
+#[derive(Clone, Default)]
+pub struct EdgeTable {
+    first: u32,
+    crossed: [u64; EDGE_WORDS],
+    /// Crossed edges in the words before each word.
+    before: [u32; EDGE_WORDS],
 }
 
-/// Where the skin crossed the grid at the last polygonization: one entry per mesh vertex.
-#[derive(Default)]
-pub struct Crossings {
-    /// Edge key → vertex index.
-    pub by_edge: HashMap<u64, u32>,
-    /// Edge key of each vertex.
-    pub keys: Vec<u64>,
-}
-
-impl Crossings {
+impl EdgeTable {
     #[inline]
-    pub fn vertex(&self, node: IVec3, axis: usize) -> Option<u32> {
-        self.by_edge.get(&edge_key(node, axis)).copied()
+    fn mark(&mut self, offset: usize, axis: usize) {
+        let bit = 3 * offset + axis;
+        self.crossed[bit >> 6] |= 1 << (bit & 63);
+    }
+
+    /// Fixes the numbering once every crossed edge is marked; returns the next free index.
+    fn number_from(&mut self, first: u32) -> u32 {
+        self.first = first;
+        let mut count = 0;
+        for (before, word) in self.before.iter_mut().zip(self.crossed) {
+            *before = count;
+            count += word.count_ones();
+        }
+        first + count
+    }
+
+    #[inline]
+    fn vertex(&self, offset: usize, axis: usize) -> Option<u32> {
+        let bit = 3 * offset + axis;
+        let word = self.crossed[bit >> 6];
+        let below = word & ((1u64 << (bit & 63)) - 1);
+        (word >> (bit & 63) & 1 == 1)
+            .then(|| self.first + self.before[bit >> 6] + below.count_ones())
     }
 }
 
-/// Per-block output, reused between calls.
+/// The crossing points of the last polygonization (§4.3.2), one [`EdgeTable`] per block of
+/// the grid it ran on, in that grid's block order: valid until the grid next changes.
+#[derive(Default)]
+pub struct Crossings {
+    tables: Vec<EdgeTable>,
+}
+
+impl Crossings {
+    /// The tables of the 27 blocks around one block (from [`SparseGrid::neighbourhood`]).
+    pub fn around<P>(&self, neighbourhood: &[Result<BlockId, P>; 27]) -> LocalCrossings<'_> {
+        LocalCrossings {
+            tables: std::array::from_fn(|n| {
+                neighbourhood[n]
+                    .as_ref()
+                    .ok()
+                    .and_then(|id| self.tables.get(id.0 as usize))
+            }),
+        }
+    }
+}
+
+/// Crossing lookups around one block, by local node coordinates in -1..=8.
+pub struct LocalCrossings<'a> {
+    tables: [Option<&'a EdgeTable>; 27],
+}
+
+impl LocalCrossings<'_> {
+    /// The mesh vertex on the edge from local node `l` toward +`axis`, if it is crossed.
+    #[inline]
+    pub fn vertex(&self, l: IVec3, axis: usize) -> Option<u32> {
+        let step = (l >> IVec3::splat(3)) + IVec3::ONE;
+        let table = self.tables[(step.x * 9 + step.y * 3 + step.z) as usize]?;
+        let local = l & IVec3::splat(BLOCK_DIM - 1);
+        table.vertex(node_offset(local.x, local.y, local.z), axis)
+    }
+}
+
+/// What one block contributes to the mesh.
 #[derive(Default)]
 struct BlockWork {
-    keys: Vec<u64>,
     positions: Vec<Vec3>,
     normals: Vec<Vec3>,
     triangles: Vec<[u32; 3]>,
 }
 
-/// The polygonizer, with buffers reused from step to step.
 #[derive(Default)]
 pub struct Polygonizer {
     work: Vec<BlockWork>,
@@ -165,57 +218,59 @@ impl Polygonizer {
     ) {
         self.work
             .resize_with(grid.block_count(), BlockWork::default);
+        crossings
+            .tables
+            .resize_with(grid.block_count(), EdgeTable::default);
 
         // Pass 1: the crossed edges owned by each block (lower node inside the block).
         for_each_block(
-            &mut self.work,
+            self.work.par_iter_mut().zip(crossings.tables.par_iter_mut()),
             grid,
-            |work, _| {
-                work.keys.clear();
+            |(work, table), block, halo, _| {
                 work.positions.clear();
                 work.normals.clear();
-            },
-            |work, halo, base, l| {
-                let fa = halo.at(l.x, l.y, l.z);
-                for axis in 0..3 {
-                    let m = l + IVec3::AXES[axis];
-                    let fb = halo.at(m.x, m.y, m.z);
-                    if inside(fa) == inside(fb) {
-                        continue;
+                *table = EdgeTable::default();
+                let base = block.coord * BLOCK_DIM;
+                for offset in block.active_offsets() {
+                    let l = offset_coords(offset);
+                    let fa = halo.at(l.x, l.y, l.z);
+                    for axis in 0..3 {
+                        let m = l + IVec3::AXES[axis];
+                        let fb = halo.at(m.x, m.y, m.z);
+                        if inside(fa) == inside(fb) {
+                            continue;
+                        }
+                        let t = fa / (fa - fb);
+                        let p = l.as_vec3() + IVec3::AXES[axis].as_vec3() * t;
+                        let g = gradient(halo, l).lerp(gradient(halo, m), t);
+                        table.mark(offset, axis);
+                        work.positions.push(xf.apply(base.as_vec3() + p));
+                        work.normals.push(g.normalize_or_zero());
                     }
-                    let t = fa / (fa - fb);
-                    let p = l.as_vec3() + IVec3::AXES[axis].as_vec3() * t;
-                    let g = gradient(halo, l).lerp(gradient(halo, m), t);
-                    work.keys.push(edge_key(base + l, axis));
-                    work.positions.push(xf.apply(base.as_vec3() + p));
-                    work.normals.push(g.normalize_or_zero());
                 }
             },
         );
 
         // Global vertex numbering, in block order.
         mesh.clear();
-        crossings.keys.clear();
-        crossings.by_edge.clear();
-        for work in &self.work {
-            for (i, &key) in work.keys.iter().enumerate() {
-                crossings
-                    .by_edge
-                    .insert(key, (crossings.keys.len() + i) as u32);
-            }
-            crossings.keys.extend_from_slice(&work.keys);
+        let mut first = 0;
+        for (work, table) in self.work.iter().zip(crossings.tables.iter_mut()) {
+            first = table.number_from(first);
             mesh.positions.extend_from_slice(&work.positions);
             mesh.normals.extend_from_slice(&work.normals);
         }
 
         // Pass 2: the cubes whose lower corner is an active node of the block.
-        let by_edge = &crossings.by_edge;
+        let shared = &*crossings;
         for_each_block(
-            &mut self.work,
+            self.work.par_iter_mut(),
             grid,
-            |work, _| work.triangles.clear(),
-            |work, halo, base, l| {
-                cube_triangles(halo, l, base, by_edge, &mut work.triangles);
+            |work, block, halo, around| {
+                work.triangles.clear();
+                let local = shared.around(around);
+                for offset in block.active_offsets() {
+                    cube_triangles(halo, offset_coords(offset), &local, &mut work.triangles);
+                }
             },
         );
         for work in &self.work {
@@ -224,31 +279,24 @@ impl Polygonizer {
     }
 }
 
-/// Walks the blocks in parallel: `reset` each block's work, then, for blocks with active
-/// nodes, gathers the halo once and calls `visit` with (work, halo, block origin, local
-/// node) for every active node.
-fn for_each_block<P: Potential>(
-    work: &mut [BlockWork],
+/// Visits each block of `grid` with its item, its halo (gathered only when the block has
+/// active nodes) and its neighbourhood.
+fn for_each_block<P: Potential, T: Send>(
+    items: impl IndexedParallelIterator<Item = T>,
     grid: &SparseGrid<P>,
-    reset: impl Fn(&mut BlockWork, IVec3) + Sync,
-    visit: impl Fn(&mut BlockWork, &Halo, IVec3, IVec3) + Sync,
+    visit: impl Fn(T, &Block<P>, &Halo, &[Result<BlockId, P>; 27]) + Sync,
 ) {
-    work.par_iter_mut()
+    items
         .zip(grid.blocks().par_iter())
-        .for_each_init(Box::<Halo>::default, |halo, (work, block)| {
-            reset(work, block.coord);
-            if block.active_count() == 0 {
-                return;
+        .for_each_init(Box::<Halo>::default, |halo, (item, block)| {
+            let around = grid.neighbourhood(block.coord);
+            if block.active_count() > 0 {
+                halo.fill(grid, &around);
             }
-            halo.gather(grid, block.coord);
-            let base = block.coord * BLOCK_DIM;
-            for offset in block.active_offsets() {
-                visit(work, halo, base, offset_coords(offset));
-            }
+            visit(item, block, halo, &around);
         });
 }
 
-/// Gradient at a halo node; one-sided on the halo's far border.
 #[inline]
 fn gradient(halo: &Halo, l: IVec3) -> Vec3 {
     let d = |axis: usize| {
@@ -265,13 +313,7 @@ fn gradient(halo: &Halo, l: IVec3) -> Vec3 {
 }
 
 /// Polygons of the cube with lower corner `l` (local), fanned into triangles.
-fn cube_triangles(
-    halo: &Halo,
-    l: IVec3,
-    base: IVec3,
-    by_edge: &HashMap<u64, u32>,
-    out: &mut Vec<[u32; 3]>,
-) {
+fn cube_triangles(halo: &Halo, l: IVec3, crossings: &LocalCrossings, out: &mut Vec<[u32; 3]>) {
     let mut signs = 0u8;
     for c in 0..8 {
         let p = l + corner_offset(c);
@@ -310,9 +352,8 @@ fn cube_triangles(
     for e in 0..12 {
         if next[e] != u8::MAX {
             let (a, _) = EDGE_CORNERS[e];
-            let node = base + l + corner_offset(a);
-            match by_edge.get(&edge_key(node, edge_axis(e))) {
-                Some(&v) => vertices[e] = v,
+            match crossings.vertex(l + corner_offset(a), edge_axis(e)) {
+                Some(v) => vertices[e] = v,
                 None => return,
             }
         }

@@ -279,7 +279,9 @@ impl<P: Potential> Skin<P> {
             .par_iter_mut()
             .zip(grid.blocks().par_iter())
             .map_init(Box::<Halo>::default, |halo, (rates, block)| {
-                halo.gather(grid, block.coord);
+                let around = grid.neighbourhood(block.coord);
+                halo.fill(grid, &around);
+                let crossings = crossings.around(&around);
                 let base = block.coord * BLOCK_DIM;
                 let to_world = |p: Vec3| xf.apply(p);
                 let mut v_max = 0.0f32;
@@ -290,6 +292,7 @@ impl<P: Potential> Skin<P> {
                     let ijk = base + l;
                     let node = speed::NodeContext {
                         ijk,
+                        local: l,
                         world: xf.apply(ijk.as_vec3()),
                         to_world: &to_world,
                         dx: params.dx,
@@ -300,7 +303,7 @@ impl<P: Potential> Skin<P> {
                         &stencil,
                         grad,
                         &node,
-                        crossings,
+                        &crossings,
                         crossing_distance,
                         target,
                     );

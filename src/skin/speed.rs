@@ -3,7 +3,7 @@
 
 use glam::{IVec3, Vec3};
 
-use crate::polygonize::Crossings;
+use crate::polygonize::LocalCrossings;
 use crate::stencil::Stencil;
 use crate::target::Target;
 
@@ -70,6 +70,8 @@ impl GlobalTerms {
 pub struct NodeContext<'a> {
     /// Global index of the node.
     pub ijk: IVec3,
+    /// Its coordinates inside its block (0..8), for crossing lookups.
+    pub local: IVec3,
     /// Its world position.
     pub world: Vec3,
     /// World position of an index-space point.
@@ -85,7 +87,7 @@ pub fn attraction_distance(
     stencil: &Stencil,
     grad: Vec3,
     node: &NodeContext,
-    crossings: &Crossings,
+    crossings: &LocalCrossings,
     crossing_distance: &[f32],
     target: &dyn Target,
 ) -> f32 {
@@ -99,13 +101,13 @@ pub fn attraction_distance(
         let e = IVec3::AXES[axis];
         let (lo, hi) = neighbours(stencil, axis);
         if (f < 0.0) != (hi < 0.0) {
-            if let Some(v) = crossings.vertex(node.ijk, axis) {
+            if let Some(v) = crossings.vertex(node.local, axis) {
                 sum += crossing_distance[v as usize];
                 n += 1;
             }
         }
         if (f < 0.0) != (lo < 0.0) {
-            if let Some(v) = crossings.vertex(node.ijk - e, axis) {
+            if let Some(v) = crossings.vertex(node.local - e, axis) {
                 sum += crossing_distance[v as usize];
                 n += 1;
             }
