@@ -1,6 +1,7 @@
 //! Band nodes per second for a full step (speed, update, band upkeep, renormalisation,
 //! polygonization) on a sphere of radius 100 voxels, moving toward a sphere of radius 104.
-//! `cargo bench --bench step` (RAYON_NUM_THREADS to pick the thread count).
+//! `cargo bench --bench step` (RAYON_NUM_THREADS to pick the thread count, BENCH_STEPS the
+//! number of timed steps, e.g. 2 under `valgrind --tool=callgrind`).
 
 use std::time::Instant;
 
@@ -27,7 +28,10 @@ fn main() {
     let target = sphere(104.0 * dx);
     let dt = skin.stable_dt(&target);
     skin.step(&target, dt); // warm the buffers
-    let steps = 20;
+    let steps: usize = std::env::var("BENCH_STEPS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(20);
     let mut nodes = 0usize;
     let start = Instant::now();
     for _ in 0..steps {
@@ -36,7 +40,8 @@ fn main() {
     }
     let seconds = start.elapsed().as_secs_f64();
     println!(
-        "sphere r=100 voxels: {} band nodes, {:.1} ms per step, {:.2} M band nodes/s ({} threads)",
+        "sphere r=100 voxels: {} blocks, {} band nodes, {:.1} ms per step, {:.2} M band nodes/s ({} threads)",
+        skin.grid().block_count(),
         nodes / steps,
         seconds * 1e3 / steps as f64,
         nodes as f64 / seconds / 1e6,

@@ -11,7 +11,7 @@ mod halo;
 use glam::IVec3;
 use hashbrown::{HashMap, HashSet};
 
-pub use halo::Halo;
+pub use halo::{Halo, HALO_DIM};
 
 /// Nodes along a block edge.
 pub const BLOCK_DIM: i32 = 8;

@@ -224,7 +224,9 @@ impl Polygonizer {
 
         // Pass 1: the crossed edges owned by each block (lower node inside the block).
         for_each_block(
-            self.work.par_iter_mut().zip(crossings.tables.par_iter_mut()),
+            self.work
+                .par_iter_mut()
+                .zip(crossings.tables.par_iter_mut()),
             grid,
             |(work, table), block, halo, _| {
                 work.positions.clear();
@@ -286,15 +288,16 @@ fn for_each_block<P: Potential, T: Send>(
     grid: &SparseGrid<P>,
     visit: impl Fn(T, &Block<P>, &Halo, &[Result<BlockId, P>; 27]) + Sync,
 ) {
-    items
-        .zip(grid.blocks().par_iter())
-        .for_each_init(Box::<Halo>::default, |halo, (item, block)| {
+    items.zip(grid.blocks().par_iter()).for_each_init(
+        Box::<Halo>::default,
+        |halo, (item, block)| {
             let around = grid.neighbourhood(block.coord);
             if block.active_count() > 0 {
                 halo.fill(grid, &around);
             }
             visit(item, block, halo, &around);
-        });
+        },
+    );
 }
 
 #[inline]

@@ -364,8 +364,7 @@ impl<P: Potential> Skin<P> {
     fn polygonize(&mut self) {
         self.polygonizer
             .run(&self.grid, self.xf, &mut self.mesh, &mut self.crossings);
-        self.area = self.mesh.area();
-        self.volume = self.mesh.volume();
+        (self.area, self.volume) = self.mesh.area_and_volume();
     }
 
     /// The skin as a narrow-band level set: signed distance φ = f·wΔx in world units,

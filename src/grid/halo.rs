@@ -39,54 +39,50 @@ impl Halo {
     }
 
     /// Fills from a block's neighbourhood, as [`SparseGrid::neighbourhood`] gives it, one
-    /// contiguous z-run at a time.
+    /// row of ten along z at a time: its eight middle values are a fixed-size copy.
     pub fn fill<P: Potential>(&mut self, grid: &SparseGrid<P>, around: &[Result<BlockId, P>; 27]) {
-        for (n, source) in around.iter().enumerate() {
-            let (x, y, z) = (span(n / 9), span((n / 3) % 3), span(n % 3));
-            for i in 0..x.len {
-                for j in 0..y.len {
-                    let h = Self::index(x.halo + i, y.halo + j, z.halo);
-                    let run = &mut self.values[h..h + z.len as usize];
-                    match source {
-                        Ok(id) => {
-                            let l = node_offset(x.local + i, y.local + j, z.local);
-                            let values = &grid.block(*id).values[l..l + z.len as usize];
-                            for (out, v) in run.iter_mut().zip(values) {
-                                *out = v.to_f32();
-                            }
+        let node = |source: &Result<BlockId, P>, offset: usize| match source {
+            Ok(id) => grid.block(*id).values[offset].to_f32(),
+            Err(tile) => tile.to_f32(),
+        };
+        for hx in -1..=BLOCK_DIM {
+            let (sx, lx) = split(hx);
+            for hy in -1..=BLOCK_DIM {
+                let (sy, ly) = split(hy);
+                // The three neighbours along z of this row: n (−1), n + 1 (0), n + 2 (+1).
+                let n = ((sx + 1) * 9 + (sy + 1) * 3) as usize;
+                let start = Self::index(hx, hy, -1);
+                let row: &mut [f32; HALO_DIM] = (&mut self.values[start..start + HALO_DIM])
+                    .try_into()
+                    .expect("a halo row is ten values");
+                let first = node_offset(lx, ly, 0);
+                row[0] = node(&around[n], first + BLOCK_DIM as usize - 1);
+                row[HALO_DIM - 1] = node(&around[n + 2], first);
+                match &around[n + 1] {
+                    Ok(id) => {
+                        let values = &grid.block(*id).values;
+                        let middle: &[P; 8] = values[first..first + 8]
+                            .try_into()
+                            .expect("a block row is eight values");
+                        for (out, v) in row[1..HALO_DIM - 1].iter_mut().zip(middle) {
+                            *out = v.to_f32();
                         }
-                        Err(tile) => run.fill(tile.to_f32()),
                     }
+                    Err(tile) => row[1..HALO_DIM - 1].fill(tile.to_f32()),
                 }
             }
         }
     }
 }
 
-/// Along one axis, the halo coordinates a neighbour covers and where they start in it.
-struct Span {
-    halo: i32,
-    local: i32,
-    len: i32,
-}
-
-/// Neighbour step 0 (−1), 1 (the block itself) or 2 (+1) along an axis.
-fn span(step: usize) -> Span {
-    match step {
-        0 => Span {
-            halo: -1,
-            local: BLOCK_DIM - 1,
-            len: 1,
-        },
-        1 => Span {
-            halo: 0,
-            local: 0,
-            len: BLOCK_DIM,
-        },
-        _ => Span {
-            halo: BLOCK_DIM,
-            local: 0,
-            len: 1,
-        },
+/// Local coordinate -1..=8 → (neighbour step -1, 0 or 1, coordinate in that block).
+#[inline]
+fn split(h: i32) -> (i32, i32) {
+    if h < 0 {
+        (-1, BLOCK_DIM - 1)
+    } else if h >= BLOCK_DIM {
+        (1, 0)
+    } else {
+        (0, h)
     }
 }
