@@ -80,6 +80,9 @@ void write_vector_grid_file(rust::Str path);
 
 MeshBuffers volume_to_mesh(const FloatGrid &grid, double isovalue, double adaptivity);
 LevelSetMeasures measure_level_set(const FloatGrid &grid);
+std::unique_ptr<FloatGrid> mesh_to_level_set(rust::Slice<const float> points,
+                                             rust::Slice<const uint32_t> triangles,
+                                             double voxel_size, float half_width);
 rust::String check_level_set(const FloatGrid &grid);
 
 }  // namespace bridge

@@ -4,6 +4,7 @@
 
 #include <openvdb/tools/Diagnostics.h>
 #include <openvdb/tools/LevelSetMeasure.h>
+#include <openvdb/tools/MeshToVolume.h>
 #include <openvdb/tools/VolumeToMesh.h>
 
 #include "activeskin/src/vdb/ffi.rs.h"
@@ -46,6 +47,35 @@ LevelSetMeasures measure_level_set(const FloatGrid &handle) {
   m.euler_characteristic = measure.eulerCharacteristic();
   m.genus = measure.genus();
   return m;
+}
+
+std::unique_ptr<FloatGrid> mesh_to_level_set(rust::Slice<const float> points,
+                                             rust::Slice<const uint32_t> triangles,
+                                             double voxel_size, float half_width) {
+  if (points.size() % 3 != 0 || triangles.size() % 3 != 0) {
+    throw openvdb::ValueError("mesh buffers must hold whole points and triangles");
+  }
+  const auto transform = openvdb::math::Transform::createLinearTransform(voxel_size);
+  std::vector<openvdb::Vec3s> world_points;
+  world_points.reserve(points.size() / 3);
+  for (size_t i = 0; i < points.size(); i += 3) {
+    world_points.emplace_back(points[i], points[i + 1], points[i + 2]);
+  }
+  std::vector<openvdb::Vec3I> faces;
+  faces.reserve(triangles.size() / 3);
+  for (size_t i = 0; i < triangles.size(); i += 3) {
+    for (size_t k = 0; k < 3; ++k) {
+      if (triangles[i + k] >= world_points.size()) {
+        throw openvdb::IndexError("triangle refers to a missing point");
+      }
+    }
+    faces.emplace_back(triangles[i], triangles[i + 1], triangles[i + 2]);
+  }
+  std::vector<openvdb::Vec4I> quads;
+  auto grid = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*transform, world_points, faces,
+                                                                 quads, half_width);
+  grid->setName("surface");
+  return wrap(grid);
 }
 
 rust::String check_level_set(const FloatGrid &handle) {

@@ -11,6 +11,7 @@ pub mod layout;
 use std::path::{Path, PathBuf};
 
 use cxx::UniquePtr;
+use glam::Vec3;
 
 pub use ffi::bridge::{FileMetadata, GridClass, GridSummary, LevelSetMeasures, MeshBuffers, Tile};
 
@@ -163,6 +164,21 @@ impl Grid {
         half_width: f32,
     ) -> Result<Self, VdbError> {
         let ptr = ffi::bridge::make_level_set_sphere(radius, center, voxel_size, half_width)
+            .map_err(|e| VdbError::Grid(one_line(e.what())))?;
+        Grid::from_ptr(ptr)
+    }
+
+    /// OpenVDB's `meshToLevelSet` of a triangle mesh given in world coordinates, on voxels
+    /// of `voxel_size` aligned with world zero, named `surface`.
+    pub fn mesh_to_level_set(
+        points: &[Vec3],
+        triangles: &[[u32; 3]],
+        voxel_size: f64,
+        half_width: f32,
+    ) -> Result<Self, VdbError> {
+        let points: Vec<f32> = points.iter().flat_map(|p| p.to_array()).collect();
+        let triangles: Vec<u32> = triangles.iter().flatten().copied().collect();
+        let ptr = ffi::bridge::mesh_to_level_set(&points, &triangles, voxel_size, half_width)
             .map_err(|e| VdbError::Grid(one_line(e.what())))?;
         Grid::from_ptr(ptr)
     }

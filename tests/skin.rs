@@ -298,3 +298,72 @@ fn exported_level_set_passes_openvdb_checks() {
         ours.area
     );
 }
+
+/// Mean and max |φ − d| in voxels over the active voxels within two voxels of the surface,
+/// against the analytic signed distance `d` of the target.
+fn level_set_error(data: &activeskin::vdb::GridData, target: &dyn Target) -> (f64, f64, usize) {
+    let (mut sum, mut max, mut n) = (0.0f64, 0.0f64, 0usize);
+    for leaf in 0..data.leaf_count() {
+        let origin = data.leaf_origins[leaf];
+        for (offset, &phi) in data.leaf_values(leaf).iter().enumerate() {
+            let active = data.leaf_masks[leaf][offset >> 6] >> (offset & 63) & 1 == 1;
+            if !active || phi.abs() >= 2.0 * DX {
+                continue;
+            }
+            let ijk = [
+                origin[0] + (offset >> 6) as i32,
+                origin[1] + ((offset >> 3) & 7) as i32,
+                origin[2] + (offset & 7) as i32,
+            ];
+            let w = data
+                .transform
+                .index_to_world(ijk.map(f64::from))
+                .map(|c| c as f32);
+            let error = f64::from((phi - target.distance(Vec3::from(w))).abs() / DX);
+            sum += error;
+            max = max.max(error);
+            n += 1;
+        }
+    }
+    (sum / n as f64, max, n)
+}
+
+/// Export the potential itself (φ = f·wΔx, renormalised every step) or rebuild the level
+/// set from the mesh with OpenVDB's meshToLevelSet? Both are held to the torus's analytic
+/// distance near the surface. Measured: ours 0.019 mean / 0.09 max voxel in 0.5 ms,
+/// meshToLevelSet 0.010 / 0.05 in 100 ms; the export stays ours, and must stay that close.
+#[test]
+fn exported_level_set_is_within_a_tenth_of_a_voxel_of_the_true_distance() {
+    let torus = Torus {
+        center: Vec3::ZERO,
+        major: 0.6,
+        minor: 0.25,
+    };
+    let mut skin: Skin<f32> = Skin::new(&sphere(0.7), params(4.0, 0.0));
+    skin.advance(&torus, 2.0);
+    let start = std::time::Instant::now();
+    let ours = skin.to_level_set();
+    let ours_ms = start.elapsed().as_secs_f64() * 1e3;
+    let mesh = skin.mesh();
+    let start = std::time::Instant::now();
+    let rebuilt =
+        Grid::mesh_to_level_set(&mesh.positions, &mesh.triangles, f64::from(DX), 3.0).unwrap();
+    let mesh_ms = start.elapsed().as_secs_f64() * 1e3;
+    let rebuilt = rebuilt.to_data().unwrap();
+    println!("export {ours_ms:.1} ms, meshToLevelSet {mesh_ms:.1} ms");
+    let (ours_mean, ours_max, ours_n) = level_set_error(&ours, &torus);
+    let (mesh_mean, mesh_max, mesh_n) = level_set_error(&rebuilt, &torus);
+    println!(
+        "|φ − d| within 2 voxels: ours mean {ours_mean:.4} max {ours_max:.3} voxel ({ours_n} voxels); \
+         meshToLevelSet mean {mesh_mean:.4} max {mesh_max:.3} voxel ({mesh_n} voxels)"
+    );
+    assert!(ours_n > 0 && mesh_n > 0);
+    assert!(
+        ours_mean <= 0.04 && ours_max <= 0.15,
+        "{ours_mean} {ours_max}"
+    );
+    assert!(
+        mesh_mean <= 0.04 && mesh_max <= 0.15,
+        "{mesh_mean} {mesh_max}"
+    );
+}

@@ -131,6 +131,14 @@ pub(crate) mod bridge {
 
         fn volume_to_mesh(grid: &FloatGrid, isovalue: f64, adaptivity: f64) -> Result<MeshBuffers>;
         fn measure_level_set(grid: &FloatGrid) -> Result<LevelSetMeasures>;
+        /// `tools::meshToLevelSet` of a triangle mesh (world coordinates) on voxels of
+        /// `voxel_size` with origin at world zero.
+        fn mesh_to_level_set(
+            points: &[f32],
+            triangles: &[u32],
+            voxel_size: f64,
+            half_width: f32,
+        ) -> Result<UniquePtr<FloatGrid>>;
         /// `tools::checkLevelSet`: empty when the grid is a valid narrow-band level set.
         fn check_level_set(grid: &FloatGrid) -> Result<String>;
     }
