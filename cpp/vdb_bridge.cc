@@ -315,6 +315,11 @@ void GridWriter::write(rust::Str path, const FileMetadata &metadata) const {
     meta.insertMeta("frame", openvdb::Int64Metadata(metadata.frame));
   }
   openvdb::io::File file{std::string(path)};
+  // Blosc where this OpenVDB has it (as Houdini writes), else zip; inactive values that
+  // equal the background are dropped either way.
+  file.setCompression(openvdb::io::COMPRESS_ACTIVE_MASK |
+                      (openvdb::io::Archive::hasBloscCompression() ? openvdb::io::COMPRESS_BLOSC
+                                                                   : openvdb::io::COMPRESS_ZIP));
   file.write(impl_->grids, meta);
   file.close();
 }

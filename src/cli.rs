@@ -2,6 +2,8 @@
 
 mod info;
 mod morph;
+mod outputs;
+mod skin;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -27,6 +29,8 @@ enum Command {
         #[arg(required = true)]
         files: Vec<PathBuf>,
     },
+    /// Dress a VDB target sequence (level sets, or fog volumes with --iso) with a skin.
+    Skin(skin::SkinArgs),
     /// Morph a skin from one shape to another, writing a VDB (and mesh) sequence.
     Morph(morph::MorphArgs),
 }
@@ -36,6 +40,7 @@ pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Info { files } => info::run(&files),
+        Command::Skin(args) => skin::run(&args),
         Command::Morph(args) => morph::run(&args),
     };
     match result {

@@ -7,6 +7,7 @@
 //! as 16-bit fixed point (§4.2.1), chosen at run time through [`Potential`].
 
 mod halo;
+mod import;
 
 use glam::IVec3;
 use hashbrown::{HashMap, HashSet};

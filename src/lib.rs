@@ -21,6 +21,7 @@ pub mod grid;
 pub mod io;
 pub mod mesh;
 pub mod polygonize;
+pub mod sequence;
 pub mod skin;
 pub mod stencil;
 pub mod target;
@@ -33,4 +34,8 @@ pub enum Error {
     Vdb(#[from] vdb::VdbError),
     #[error(transparent)]
     Mesh(#[from] mesh::MeshError),
+    #[error(transparent)]
+    Skin(#[from] skin::SkinError),
+    #[error(transparent)]
+    Pattern(#[from] sequence::PatternError),
 }

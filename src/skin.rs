@@ -415,6 +415,32 @@ impl<P: Potential> Skin<P> {
         data
     }
 
+    /// Replaces the potential by a level set as [`Skin::to_level_set`] writes it (same
+    /// voxel size, origin at world zero), then rebuilds the tube and the mesh. `--resume`
+    /// reads the last frame back this way; an uninterrupted run restores each frame it
+    /// writes too, so that both runs go on from the same state, bit for bit.
+    pub fn restore(&mut self, data: &GridData) -> Result<(), SkinError> {
+        let dx = f64::from(self.params.dx);
+        let found = data.transform.voxel_size();
+        let origin = data.transform.index_to_world([0.0; 3]);
+        if !data.uniform_linear || (found - dx).abs() > 1e-9 * dx || origin != [0.0; 3] {
+            return Err(SkinError::Incompatible(format!(
+                "grid '{}' has voxel size {found} and origin {origin:?}, the skin {dx} at the world origin",
+                data.name
+            )));
+        }
+        let scale = self.params.band_width * self.params.dx;
+        self.grid = SparseGrid::from_vdb(data, |phi| phi / scale);
+        band::upkeep(&mut self.grid);
+        self.polygonize();
+        Ok(())
+    }
+
+    /// Sets the clock (seconds), e.g. after [`Skin::restore`].
+    pub fn set_time(&mut self, time: f64) {
+        self.time = time;
+    }
+
     /// Bytes held by the potential's grid.
     pub fn memory_bytes(&self) -> usize {
         self.grid.memory_bytes()
@@ -444,6 +470,13 @@ fn max_change<P: Potential>(before: &SparseGrid<P>, after: &SparseGrid<P>, band_
             .reduce(|| 0.0, f32::max)
     };
     one_way(before, after).max(one_way(after, before))
+}
+
+/// A state the skin cannot take.
+#[derive(Debug, thiserror::Error)]
+pub enum SkinError {
+    #[error("cannot restore the skin: {0}")]
+    Incompatible(String),
 }
 
 /// A skin whose storage was chosen at run time.
@@ -488,5 +521,11 @@ impl AnySkin {
     }
     pub fn set_speed(&mut self, speed: SpeedParams) {
         each!(self, s => s.set_speed(speed))
+    }
+    pub fn restore(&mut self, data: &GridData) -> Result<(), SkinError> {
+        each!(self, s => s.restore(data))
+    }
+    pub fn set_time(&mut self, time: f64) {
+        each!(self, s => s.set_time(time))
     }
 }

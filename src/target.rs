@@ -1,6 +1,7 @@
 //! What the skin is attracted to (paper §3.4): VDB level sets and fog volumes, analytic
 //! shapes, skeleton blobs, and unions of them.
 
+pub mod sample;
 mod shapes;
 mod vdb;
 

@@ -1,0 +1,62 @@
+//! Writes the sample target sequences of `data/` (analytic shapes sampled into VDB level
+//! sets): `cargo run --release --example make_data [-- OUT_DIR]`.
+//!
+//! Voxel size 1/16, half-float values, 8 frames each (about 500 KB in all):
+//! - `moving/sphere.####.vdb`: a sphere of radius 0.3 gliding 0.2 along x.
+//! - `splitting/pair.####.vdb`: two overlapping spheres of radius 0.25 that move apart
+//!   and separate (a merge, read backwards).
+
+use std::path::PathBuf;
+
+use activeskin::target::{sample, Sphere, Target, Union};
+use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
+use glam::Vec3;
+
+const DX: f32 = 1.0 / 16.0;
+
+fn write(target: &dyn Target, path: PathBuf, frame: i64) -> Result<(), activeskin::Error> {
+    let grid = Grid::from_data(&sample::level_set(target, DX, 3.0))?;
+    let options = WriteOptions { half_float: true };
+    let meta = FileMetadata {
+        creator: "activeskin examples/make_data.rs".into(),
+        has_frame: true,
+        frame,
+    };
+    vdb::write_grids(&path, &[(&grid, options)], &meta)?;
+    Ok(())
+}
+
+fn main() -> Result<(), activeskin::Error> {
+    let out = PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| "data".into()));
+    std::fs::create_dir_all(out.join("moving")).expect("create data/moving");
+    std::fs::create_dir_all(out.join("splitting")).expect("create data/splitting");
+    for frame in 1..=8 {
+        let t = (frame - 1) as f32 / 7.0;
+        let sphere = Sphere {
+            center: Vec3::new(-0.1 + 0.2 * t, 0.0, 0.0),
+            radius: 0.3,
+        };
+        write(
+            &sphere,
+            out.join(format!("moving/sphere.{frame:04}.vdb")),
+            frame,
+        )?;
+        let gap = 0.3 + 0.5 * t;
+        let pair = Union(vec![
+            Box::new(Sphere {
+                center: Vec3::new(-gap / 2.0, 0.0, 0.0),
+                radius: 0.25,
+            }) as Box<dyn Target>,
+            Box::new(Sphere {
+                center: Vec3::new(gap / 2.0, 0.0, 0.0),
+                radius: 0.25,
+            }),
+        ]);
+        write(
+            &pair,
+            out.join(format!("splitting/pair.{frame:04}.vdb")),
+            frame,
+        )?;
+    }
+    Ok(())
+}

@@ -1,0 +1,266 @@
+//! What `skin` and `morph` share: the skin's physical options, and the per-frame outputs
+//! (VDB, mesh, stats line, progress), each file written under a temporary name and renamed.
+
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use activeskin::grid::Precision;
+use activeskin::sequence::FramePattern;
+use activeskin::skin::{AnySkin, SkinParams, SpeedParams, StepStats};
+use activeskin::vdb::{self, FileMetadata, Grid, GridData, WriteOptions};
+use anyhow::{bail, Context};
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// The skin's physical and numerical options.
+#[derive(clap::Args)]
+pub struct PhysicsArgs {
+    /// Frames per second: the skin advances 1/fps seconds per frame.
+    #[arg(long, default_value_t = 24.0)]
+    pub fps: f64,
+    /// Attraction rate α (1/s): the skin closes α × its distance to the target per second.
+    #[arg(long, default_value_t = 4.0)]
+    pub alpha: f32,
+    /// Surface tension β (world units²/s): smooths, shrinks thin parts and small bubbles.
+    #[arg(long, default_value_t = 0.001)]
+    pub beta: f32,
+    /// Volume preservation gain γ_V (world units/s).
+    #[arg(long, default_value_t = 0.0)]
+    pub volume_gain: f32,
+    /// Area preservation gain γ_A (world units/s).
+    #[arg(long, default_value_t = 0.0)]
+    pub area_gain: f32,
+    /// Voxel size of the skin (default: the target's).
+    #[arg(long)]
+    pub voxel_size: Option<f32>,
+    /// Storage of the potential: f32, or fixed16 (half the memory).
+    #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
+    pub precision: PrecisionArg,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum PrecisionArg {
+    F32,
+    Fixed16,
+}
+
+impl PhysicsArgs {
+    /// Checked parameters for a skin of voxel size `dx`.
+    pub fn params(&self, default_dx: f32) -> anyhow::Result<SkinParams> {
+        if !self.fps.is_finite() || self.fps <= 0.0 {
+            bail!("--fps must be a positive number");
+        }
+        for (name, v) in [
+            ("--alpha", self.alpha),
+            ("--beta", self.beta),
+            ("--volume-gain", self.volume_gain),
+            ("--area-gain", self.area_gain),
+        ] {
+            // Rejects NaN as well as negatives.
+            if !(v.is_finite() && v >= 0.0) {
+                bail!("{name} must be a non-negative number, got {v}");
+            }
+        }
+        let dx = self.voxel_size.unwrap_or(default_dx);
+        if !(dx.is_finite() && dx > 0.0) {
+            bail!("--voxel-size must be a positive number, got {dx}");
+        }
+        Ok(SkinParams {
+            dx,
+            speed: SpeedParams {
+                alpha: self.alpha,
+                beta: self.beta,
+                volume_gain: self.volume_gain,
+                area_gain: self.area_gain,
+                ..SpeedParams::default()
+            },
+            precision: match self.precision {
+                PrecisionArg::F32 => Precision::F32,
+                PrecisionArg::Fixed16 => Precision::Fixed16,
+            },
+            ..SkinParams::default()
+        })
+    }
+}
+
+/// The files written per frame.
+#[derive(clap::Args)]
+pub struct OutputArgs {
+    /// Skin VDB level sets (grid `surface`): name.####.vdb, name.%04d.vdb, name.$F4.vdb.
+    #[arg(long)]
+    pub out: Option<String>,
+    /// Meshes, OBJ or PLY by extension, same patterns.
+    #[arg(long)]
+    pub mesh: Option<String>,
+    /// One JSON object per frame (frame, time, sub-steps, band nodes, blocks, area,
+    /// volume, Euler characteristic, components, milliseconds).
+    #[arg(long)]
+    pub stats: Option<PathBuf>,
+    /// Continue from the last skin VDB already written by --out.
+    #[arg(long)]
+    pub resume: bool,
+    /// No progress output.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// Writes each frame's outputs and reports progress.
+pub struct Outputs {
+    out: Option<FramePattern>,
+    mesh: Option<FramePattern>,
+    stats: Option<(PathBuf, Vec<u8>)>,
+    progress: ProgressBar,
+    plain: bool,
+}
+
+impl Outputs {
+    pub fn new(args: &OutputArgs, frames: u64) -> anyhow::Result<Self> {
+        let out = args.out.as_deref().map(FramePattern::parse).transpose()?;
+        let mesh = args.mesh.as_deref().map(FramePattern::parse).transpose()?;
+        if let Some(mesh) = &mesh {
+            let name = mesh.path(0);
+            let ext = name.extension().and_then(|e| e.to_str()).unwrap_or("");
+            if !ext.eq_ignore_ascii_case("obj") && !ext.eq_ignore_ascii_case("ply") {
+                bail!(
+                    "--mesh '{}': meshes must end in .obj or .ply",
+                    name.display()
+                );
+            }
+        }
+        if out.is_none() && mesh.is_none() && args.stats.is_none() {
+            bail!("nothing to write: give --out, --mesh or --stats");
+        }
+        if args.resume && out.is_none() {
+            bail!("--resume needs --out: it continues from the last skin VDB written there");
+        }
+        for pattern in out.iter().chain(&mesh) {
+            let folder = pattern.folder();
+            std::fs::create_dir_all(&folder).with_context(|| {
+                format!("{}: cannot create the output folder", folder.display())
+            })?;
+        }
+        let terminal = std::io::stderr().is_terminal();
+        let progress = if args.quiet || !terminal {
+            ProgressBar::hidden()
+        } else {
+            let bar = ProgressBar::new(frames);
+            bar.set_style(
+                ProgressStyle::with_template(
+                    "{bar:40} {pos}/{len} frames, {elapsed} ({eta} left) {msg}",
+                )
+                .expect("a valid progress template"),
+            );
+            bar
+        };
+        Ok(Outputs {
+            out,
+            mesh,
+            stats: args.stats.clone().map(|p| (p, Vec::new())),
+            progress,
+            plain: !args.quiet && !terminal,
+        })
+    }
+
+    /// The skin VDB of a frame, if --out was given and the file exists.
+    pub fn written_skin(&self, frame: i64) -> Option<PathBuf> {
+        let path = self.out.as_ref()?.path(frame);
+        path.is_file().then_some(path)
+    }
+
+    /// Writes one frame; returns the level set written, for [`AnySkin::restore`].
+    pub fn write_frame(
+        &mut self,
+        frame: i64,
+        skin: &AnySkin,
+        stats: &StepStats,
+        started: Instant,
+    ) -> anyhow::Result<Option<GridData>> {
+        let mut written = None;
+        if let Some(pattern) = &self.out {
+            let path = pattern.path(frame);
+            let data = skin.to_level_set();
+            let grid = Grid::from_data(&data)?;
+            let meta = FileMetadata {
+                creator: format!("activeskin {}", env!("CARGO_PKG_VERSION")),
+                has_frame: true,
+                frame,
+            };
+            vdb::write_grids(&path, &[(&grid, WriteOptions::default())], &meta)?;
+            written = Some(data);
+        }
+        if let Some(pattern) = &self.mesh {
+            skin.mesh().write(&pattern.path(frame))?;
+        }
+        let ms = started.elapsed().as_secs_f64() * 1e3;
+        let line = serde_json::json!({
+            "frame": frame,
+            "time": skin.time(),
+            "substeps": stats.substeps,
+            "band_nodes": stats.band_nodes,
+            "blocks": stats.blocks,
+            "area": stats.area,
+            "volume": stats.volume,
+            "euler_characteristic": stats.euler_characteristic,
+            "components": stats.components,
+            "milliseconds": ms,
+        });
+        if let Some((path, lines)) = &mut self.stats {
+            lines.extend_from_slice(line.to_string().as_bytes());
+            lines.push(b'\n');
+            write_file(path, lines)?;
+        }
+        if self.plain {
+            println!(
+                "frame {frame}: {} sub-steps, {} band nodes, area {:.4}, volume {:.4}, χ {}, {} component(s), {ms:.0} ms",
+                stats.substeps,
+                stats.band_nodes,
+                stats.area,
+                stats.volume,
+                stats.euler_characteristic,
+                stats.components,
+            );
+        }
+        self.progress.inc(1);
+        Ok(written)
+    }
+
+    /// Keeps the stats of frames already written when resuming: the lines before `frame`.
+    pub fn resume_stats(&mut self, frame: i64) -> anyhow::Result<()> {
+        let Some((path, lines)) = &mut self.stats else {
+            return Ok(());
+        };
+        let Ok(old) = std::fs::read_to_string(&*path) else {
+            return Ok(());
+        };
+        for line in old.lines() {
+            let value: serde_json::Value = serde_json::from_str(line).with_context(|| {
+                format!(
+                    "{}: not a stats file (one JSON object per line)",
+                    path.display()
+                )
+            })?;
+            if value["frame"].as_i64().is_some_and(|f| f < frame) {
+                lines.extend_from_slice(line.as_bytes());
+                lines.push(b'\n');
+            }
+        }
+        Ok(())
+    }
+
+    pub fn skip(&self, frames: u64) {
+        self.progress.inc(frames);
+    }
+
+    pub fn finish(&self) {
+        self.progress.finish_and_clear();
+    }
+}
+
+fn write_file(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    activeskin::io::write_atomically(path, |tmp| {
+        std::fs::File::create(tmp)
+            .and_then(|mut f| f.write_all(bytes))
+            .map_err(|e| e.to_string())
+    })
+    .map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))
+}

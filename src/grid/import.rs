@@ -1,0 +1,71 @@
+//! A grid copied from VDB, leaf for block: the values scaled into the potential's [-1, 1].
+
+use glam::IVec3;
+use hashbrown::HashSet;
+
+use super::{Potential, SparseGrid, BLOCK_DIM};
+use crate::vdb::GridData;
+
+impl<P: Potential> SparseGrid<P> {
+    /// One block per leaf, in coordinate order (so that two imports of the same data are
+    /// the same grid, block for block), with `f = clamp(value(φ) / scale)`. Inside tiles of
+    /// one block are kept; larger inside tiles and a negative background are kept where
+    /// they touch a leaf, which is all a polygonizer or the band upkeep reads.
+    pub fn from_vdb(data: &GridData, value: impl Fn(f32) -> f32) -> Self {
+        let mut order: Vec<usize> = (0..data.leaf_count()).collect();
+        order.sort_unstable_by_key(|&i| data.leaf_origins[i]);
+        let mut grid = SparseGrid::new();
+        for &leaf in &order {
+            let coord = IVec3::from_array(data.leaf_origins[leaf]) >> IVec3::splat(3);
+            let id = grid.touch(coord);
+            let block = &mut grid.blocks[id.0 as usize];
+            for (out, &v) in block.values.iter_mut().zip(data.leaf_values(leaf)) {
+                *out = P::from_f32(value(v).clamp(-1.0, 1.0));
+            }
+        }
+        let leaves: HashSet<IVec3> = grid.index.keys().copied().collect();
+        for tile in &data.tiles {
+            if value(tile.value) >= 0.0 {
+                continue;
+            }
+            let lo = IVec3::from_array(tile.origin) >> IVec3::splat(3);
+            let blocks = (tile.dim as i32 / BLOCK_DIM).max(1);
+            if blocks == 1 {
+                grid.set_tile(lo, true);
+                continue;
+            }
+            let hi = lo + IVec3::splat(blocks);
+            for &leaf in &leaves {
+                for d in neighbour_steps() {
+                    let c = leaf + d;
+                    if c.cmpge(lo).all() && c.cmplt(hi).all() && !leaves.contains(&c) {
+                        grid.set_tile(c, true);
+                    }
+                }
+            }
+        }
+        if value(data.background) < 0.0 {
+            // Everything not stored is inside: mark the ring around the leaves.
+            let tiles: HashSet<IVec3> = data
+                .tiles
+                .iter()
+                .map(|t| IVec3::from_array(t.origin) >> IVec3::splat(3))
+                .collect();
+            for &leaf in &leaves {
+                for d in neighbour_steps() {
+                    let c = leaf + d;
+                    if !leaves.contains(&c) && !tiles.contains(&c) {
+                        grid.set_tile(c, true);
+                    }
+                }
+            }
+        }
+        grid
+    }
+}
+
+fn neighbour_steps() -> impl Iterator<Item = IVec3> {
+    (0..27)
+        .map(|n| IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1))
+        .filter(|d| *d != IVec3::ZERO)
+}

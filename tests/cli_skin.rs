@@ -1,0 +1,414 @@
+//! `activeskin skin` end to end on the sample sequences of data/ and on generated ones:
+//! every frame written and valid, the skin on target, splits seen, stats as JSON lines,
+//! `--resume` equal to an uninterrupted run, and bad input reported in one line with
+//! nothing lost.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use activeskin::mesh::Mesh;
+use activeskin::target::{sample, Sphere, Target};
+use activeskin::vdb::{self, FileMetadata, Grid, GridClass, GridData, WriteOptions};
+use glam::Vec3;
+
+const DATA_DX: f64 = 1.0 / 16.0;
+
+fn activeskin(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_activeskin"))
+        .args(args)
+        .output()
+        .expect("run activeskin")
+}
+
+fn data(path: &str) -> String {
+    format!("{}/data/{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn assert_ok(out: &Output) {
+    assert!(out.status.success(), "{}", stderr(out));
+}
+
+/// Exit 1, one line naming `file`, no panic.
+fn assert_one_line_error(out: &Output, file: &str) {
+    let err = stderr(out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains(file), "error does not name {file}: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .map(|d| {
+            d.map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    names
+}
+
+fn read_skin(path: &Path) -> GridData {
+    Grid::read(path, Some("surface"))
+        .unwrap()
+        .to_data()
+        .unwrap()
+}
+
+/// The mesh of a frame, read back from its OBJ.
+fn read_obj(path: &Path) -> Mesh {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut mesh = Mesh::default();
+    for line in text.lines() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => {
+                let v: Vec<f32> = words.map(|w| w.parse().unwrap()).collect();
+                mesh.positions.push(Vec3::new(v[0], v[1], v[2]));
+            }
+            Some("f") => {
+                let f: Vec<u32> = words
+                    .map(|w| w.split('/').next().unwrap().parse::<u32>().unwrap() - 1)
+                    .collect();
+                mesh.triangles.push([f[0], f[1], f[2]]);
+            }
+            _ => {}
+        }
+    }
+    mesh
+}
+
+#[test]
+fn moving_sphere_every_frame_valid_and_on_target() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("skin.$F4.vdb");
+    let mesh = dir.path().join("skin.%04d.obj");
+    let stats = dir.path().join("stats.jsonl");
+    let result = activeskin(&[
+        "skin",
+        "--target",
+        &data("moving/sphere.####.vdb"),
+        "--alpha",
+        "24",
+        "--beta",
+        "0.0002",
+        "--out",
+        out.to_str().unwrap(),
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+    ]);
+    assert_ok(&result);
+    let lines: Vec<serde_json::Value> = std::fs::read_to_string(&stats)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a JSON object per line"))
+        .collect();
+    assert_eq!(lines.len(), 8);
+    for (i, frame) in (1..=8).enumerate() {
+        let line = &lines[i];
+        assert_eq!(line["frame"], frame);
+        for key in [
+            "time",
+            "substeps",
+            "band_nodes",
+            "blocks",
+            "area",
+            "volume",
+            "euler_characteristic",
+            "components",
+            "milliseconds",
+        ] {
+            assert!(line[key].is_number(), "stats line lacks {key}: {line}");
+        }
+        let path = dir.path().join(format!("skin.{frame:04}.vdb"));
+        let grids = vdb::list_grids(&path).unwrap();
+        assert_eq!(grids.len(), 1);
+        let skin = read_skin(&path);
+        assert_eq!(skin.name, "surface");
+        assert_eq!(skin.class, GridClass::LevelSet);
+        assert!((skin.transform.voxel_size() - DATA_DX).abs() < 1e-9);
+        assert!((f64::from(skin.background) - 3.0 * DATA_DX).abs() < 1e-6);
+        assert_eq!(
+            Grid::from_data(&skin).unwrap().check_level_set().unwrap(),
+            Ok(())
+        );
+        // The target of this frame, as examples/make_data.rs made it.
+        let t = (frame - 1) as f32 / 7.0;
+        let target = Sphere {
+            center: Vec3::new(-0.1 + 0.2 * t, 0.0, 0.0),
+            radius: 0.3,
+        };
+        let mesh = read_obj(&dir.path().join(format!("skin.{frame:04}.obj")));
+        let topology = mesh.topology();
+        assert!(topology.closed && topology.manifold && mesh.volume() > 0.0);
+        let max = mesh
+            .positions
+            .iter()
+            .map(|&p| f64::from(target.distance(p).abs()) / DATA_DX)
+            .fold(0.0, f64::max);
+        assert!(max <= 1.0, "frame {frame}: {max:.2} voxels off the target");
+    }
+    assert!(files_in(dir.path()).iter().all(|f| !f.contains("tmp")));
+}
+
+#[test]
+fn splitting_target_gives_two_components() {
+    let dir = tempfile::tempdir().unwrap();
+    let stats = dir.path().join("stats.jsonl");
+    let result = activeskin(&[
+        "skin",
+        "--target",
+        &data("splitting/pair.####.vdb"),
+        "--alpha",
+        "24",
+        "--stats",
+        stats.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_ok(&result);
+    let text = std::fs::read_to_string(&stats).unwrap();
+    let lines: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines[0]["components"], 1);
+    let last = lines.last().unwrap();
+    assert_eq!(last["frame"], 8);
+    assert_eq!(last["components"], 2, "{text}");
+    assert_eq!(last["euler_characteristic"], 4);
+}
+
+fn skin_args<'a>(target: &'a str, out: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        "skin", "--target", target, "--alpha", "24", "--out", out, "-q",
+    ];
+    args.extend_from_slice(extra);
+    args
+}
+
+#[test]
+fn resume_equals_an_uninterrupted_run() {
+    let target = data("splitting/pair.####.vdb");
+    let whole = tempfile::tempdir().unwrap();
+    let whole_out = whole.path().join("skin.####.vdb");
+    assert_ok(&activeskin(&skin_args(
+        &target,
+        whole_out.to_str().unwrap(),
+        &[],
+    )));
+
+    // A run stopped after frame 3 (a killed run leaves whole frames only: each is renamed
+    // into place), then resumed.
+    let part = tempfile::tempdir().unwrap();
+    let part_out = part.path().join("skin.####.vdb");
+    let stats = part.path().join("stats.jsonl");
+    let stats = stats.to_str().unwrap();
+    let out = part_out.to_str().unwrap();
+    assert_ok(&activeskin(&skin_args(
+        &target,
+        out,
+        &["--frames", "1-3", "--stats", stats],
+    )));
+    let frame3 = std::fs::read(part.path().join("skin.0003.vdb")).unwrap();
+    assert_ok(&activeskin(&skin_args(
+        &target,
+        out,
+        &["--resume", "--stats", stats],
+    )));
+    assert_eq!(
+        std::fs::read(part.path().join("skin.0003.vdb")).unwrap(),
+        frame3,
+        "resume rewrote a finished frame"
+    );
+    for frame in 4..=8 {
+        let name = format!("skin.{frame:04}.vdb");
+        let (a, b) = (
+            read_skin(&whole.path().join(&name)),
+            read_skin(&part.path().join(&name)),
+        );
+        assert_eq!(a.leaf_origins, b.leaf_origins, "frame {frame}");
+        assert_eq!(a.leaf_masks, b.leaf_masks, "frame {frame}");
+        assert!(
+            a.leaf_values
+                .iter()
+                .zip(&b.leaf_values)
+                .all(|(x, y)| x.to_bits() == y.to_bits()),
+            "frame {frame}: values differ"
+        );
+        assert_eq!(a.tiles.len(), b.tiles.len(), "frame {frame}");
+    }
+    let frames: Vec<i64> = std::fs::read_to_string(stats)
+        .unwrap()
+        .lines()
+        .map(|l| {
+            serde_json::from_str::<serde_json::Value>(l).unwrap()["frame"]
+                .as_i64()
+                .unwrap()
+        })
+        .collect();
+    assert_eq!(frames, (1..=8).collect::<Vec<_>>());
+}
+
+/// A copy of the moving sphere's frames in a fresh folder, to damage.
+fn copy_of_moving(dir: &Path) -> String {
+    for frame in 1..=8 {
+        let name = format!("sphere.{frame:04}.vdb");
+        std::fs::copy(data(&format!("moving/{name}")), dir.join(&name)).unwrap();
+    }
+    dir.join("sphere.####.vdb").to_string_lossy().into_owned()
+}
+
+fn write_grid(path: &Path, data: &GridData) {
+    let grid = Grid::from_data(data).unwrap();
+    let meta = FileMetadata {
+        creator: "test".into(),
+        has_frame: false,
+        frame: 0,
+    };
+    vdb::write_grids(path, &[(&grid, WriteOptions::default())], &meta).unwrap();
+}
+
+fn sphere_level_set() -> GridData {
+    let sphere = Sphere {
+        center: Vec3::ZERO,
+        radius: 0.3,
+    };
+    sample::level_set(&sphere as &dyn Target, DATA_DX as f32, 3.0)
+}
+
+#[test]
+fn a_bad_frame_stops_the_run_and_keeps_earlier_frames() {
+    type Damage = fn(&Path) -> Vec<String>;
+    let cases: [(&str, Damage); 6] = [
+        ("missing", |f| {
+            std::fs::remove_file(f).unwrap();
+            vec![]
+        }),
+        ("empty", |f| {
+            std::fs::write(f, b"").unwrap();
+            vec![]
+        }),
+        ("garbage", |f| {
+            std::fs::write(f, b"this is not a VDB file, just some words").unwrap();
+            vec![]
+        }),
+        ("truncated", |f| {
+            let bytes = std::fs::read(f).unwrap();
+            std::fs::write(f, &bytes[..bytes.len() / 2]).unwrap();
+            vec![]
+        }),
+        ("NaN", |f| {
+            let mut grid = sphere_level_set();
+            grid.leaf_values[100] = f32::NAN;
+            write_grid(f, &grid);
+            vec![]
+        }),
+        ("non-uniform", |f| {
+            let mut grid = sphere_level_set();
+            grid.transform.matrix[5] *= 2.0;
+            write_grid(f, &grid);
+            vec![]
+        }),
+    ];
+    for (what, damage) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        let target = copy_of_moving(dir.path());
+        let bad = dir.path().join("sphere.0004.vdb");
+        damage(&bad);
+        let out_dir = dir.path().join("out");
+        let out = out_dir.join("skin.####.vdb");
+        let result = activeskin(&skin_args(
+            &target,
+            out.to_str().unwrap(),
+            &["--frames", "1-8"],
+        ));
+        assert_one_line_error(&result, "sphere.0004.vdb");
+        assert_eq!(
+            files_in(&out_dir),
+            ["skin.0001.vdb", "skin.0002.vdb", "skin.0003.vdb"],
+            "{what}"
+        );
+        for frame in 1..=3 {
+            let path = out_dir.join(format!("skin.{frame:04}.vdb"));
+            assert_eq!(vdb::list_grids(&path).unwrap().len(), 1, "{what}");
+        }
+    }
+}
+
+#[test]
+fn hold_missing_keeps_the_last_target() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = copy_of_moving(dir.path());
+    std::fs::remove_file(dir.path().join("sphere.0005.vdb")).unwrap();
+    let out = dir.path().join("out/skin.####.vdb");
+    let result = activeskin(&skin_args(
+        &target,
+        out.to_str().unwrap(),
+        &["--frames", "1-8", "--hold-missing"],
+    ));
+    assert_ok(&result);
+    assert_eq!(files_in(&dir.path().join("out")).len(), 8);
+}
+
+#[test]
+fn bad_usage_and_unusable_grids_are_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = copy_of_moving(dir.path());
+    let out = dir.path().join("out/skin.####.vdb");
+    let out = out.to_str().unwrap();
+
+    let result = activeskin(&skin_args(&target, out, &["--grid", "density"]));
+    assert_one_line_error(&result, "sphere.0001.vdb");
+    assert!(stderr(&result).contains("density"));
+
+    let nothing = dir.path().join("nothing.####.vdb");
+    let result = activeskin(&skin_args(nothing.to_str().unwrap(), out, &[]));
+    assert_one_line_error(&result, "nothing.####.vdb");
+
+    let result = activeskin(&["skin", "--target", &target, "--alpha=-1", "--out", out]);
+    assert_one_line_error(&result, "--alpha");
+
+    // A fog volume (density 1 inside) needs --iso; with it, the skin runs.
+    let fog_dir = dir.path().join("fog");
+    std::fs::create_dir(&fog_dir).unwrap();
+    let mut fog = sphere_level_set();
+    let bg = fog.background;
+    fog.class = GridClass::FogVolume;
+    fog.background = 0.0;
+    fog.leaf_values
+        .iter_mut()
+        .for_each(|v| *v = (0.5 - 0.5 * *v / bg).clamp(0.0, 1.0));
+    fog.tiles.iter_mut().for_each(|t| t.value = 1.0);
+    write_grid(&fog_dir.join("fog.0001.vdb"), &fog);
+    write_grid(&fog_dir.join("fog.0002.vdb"), &fog);
+    let fog_target = fog_dir.join("fog.####.vdb");
+    let fog_target = fog_target.to_str().unwrap();
+    let result = activeskin(&skin_args(fog_target, out, &[]));
+    assert_one_line_error(&result, "fog.0001.vdb");
+    assert!(stderr(&result).contains("--iso"));
+    let mesh = dir.path().join("fog_out/fog.####.ply");
+    let result = activeskin(&[
+        "skin",
+        "--target",
+        fog_target,
+        "--iso",
+        "0.5",
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_ok(&result);
+
+    // An output folder that cannot be made (a file stands in its way).
+    let blocker = dir.path().join("blocker");
+    std::fs::write(&blocker, b"").unwrap();
+    let inside: PathBuf = blocker.join("skin.####.vdb");
+    let result = activeskin(&skin_args(&target, inside.to_str().unwrap(), &[]));
+    assert_one_line_error(&result, "blocker");
+}
