@@ -1,6 +1,7 @@
 //! The `activeskin` command line. `anyhow` lives here only; the library has typed errors.
 
 mod info;
+mod mesh;
 mod morph;
 mod outputs;
 mod skin;
@@ -33,6 +34,8 @@ enum Command {
     Skin(skin::SkinArgs),
     /// Morph a skin from one shape to another, writing a VDB (and mesh) sequence.
     Morph(morph::MorphArgs),
+    /// Mesh a level set (or a fog volume at --iso) with activeskin's polygonizer.
+    Mesh(mesh::MeshArgs),
 }
 
 /// Runs the command line; exit code 0 on success, 1 on bad data, 2 on bad usage (clap).
@@ -42,6 +45,7 @@ pub fn run() -> ExitCode {
         Command::Info { files } => info::run(&files),
         Command::Skin(args) => skin::run(&args),
         Command::Morph(args) => morph::run(&args),
+        Command::Mesh(args) => mesh::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,91 @@
+//! `activeskin mesh IN.vdb OUT.obj|OUT.ply`: our polygonizer on any level set, or on a fog
+//! volume at `--iso`.
+
+use std::path::PathBuf;
+
+use activeskin::grid::SparseGrid;
+use activeskin::mesh::Mesh;
+use activeskin::polygonize::{Crossings, IndexToWorld, Polygonizer};
+use activeskin::skin::band;
+use activeskin::vdb::{Grid, GridClass};
+use anyhow::bail;
+use glam::Vec3;
+
+#[derive(clap::Args)]
+pub struct MeshArgs {
+    /// A VDB file.
+    input: PathBuf,
+    /// The mesh to write: .obj or .ply.
+    output: PathBuf,
+    /// Grid name (default: the first float grid).
+    #[arg(long)]
+    grid: Option<String>,
+    /// Surface density, for fog volumes (inside where the density is larger).
+    #[arg(long)]
+    iso: Option<f32>,
+}
+
+pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
+    let path = &args.input;
+    let data = Grid::read(path, args.grid.as_deref())?.to_data()?;
+    if !data.uniform_linear {
+        bail!(
+            "{}: grid '{}' has a non-uniform or non-linear transform",
+            path.display(),
+            data.name
+        );
+    }
+    // Only signs and linear interpolation matter to the polygonizer: scale into [-1, 1].
+    let (iso, sign) = match (data.class, args.iso) {
+        (_, Some(iso)) if iso.is_finite() => (iso, -1.0f32),
+        (_, Some(iso)) => bail!("--iso must be a number, got {iso}"),
+        (GridClass::LevelSet, None) => (0.0, 1.0),
+        (_, None) => bail!(
+            "{}: grid '{}' is not a level set: give --iso, the density of its surface",
+            path.display(),
+            data.name
+        ),
+    };
+    let finite = |v: &f32| v.is_finite();
+    if !(data.leaf_values.iter().all(finite) && data.tiles.iter().all(|t| t.value.is_finite())) {
+        bail!(
+            "{}: grid '{}' holds NaN or infinite values",
+            path.display(),
+            data.name
+        );
+    }
+    let range = data
+        .leaf_values
+        .iter()
+        .chain(data.tiles.iter().map(|t| &t.value))
+        .chain([&data.background])
+        .fold(0.0f32, |m, &v| m.max((v - iso).abs()))
+        .max(f32::MIN_POSITIVE);
+    let mut grid: SparseGrid<f32> = SparseGrid::from_vdb(&data, |v| sign * (v - iso) / range);
+    band::upkeep(&mut grid);
+    let origin = data.transform.index_to_world([0.0; 3]).map(|c| c as f32);
+    let xf = IndexToWorld {
+        origin: Vec3::from(origin),
+        dx: data.transform.voxel_size() as f32,
+    };
+    let mut mesh = Mesh::default();
+    Polygonizer::default().run(&grid, xf, &mut mesh, &mut Crossings::default());
+    mesh.write(&args.output)?;
+    let topology = mesh.topology();
+    println!(
+        "{}: {} vertices, {} triangles, area {:.6}, volume {:.6}, χ {}, {} component(s){}",
+        args.output.display(),
+        mesh.positions.len(),
+        mesh.triangles.len(),
+        mesh.area(),
+        mesh.volume(),
+        mesh.euler_characteristic(),
+        mesh.components(),
+        if topology.closed {
+            ""
+        } else {
+            ", open at the grid's edge"
+        }
+    );
+    Ok(())
+}
