@@ -16,9 +16,8 @@ build: deps
 
 demo: build
 	@mkdir -p $(OUT)
-	./target/release/activeskin morph --from blobs:fig7 --to spheres:fig7 --frames 1-48 \
-		--out $(OUT)/fig7.####.vdb --mesh $(OUT)/fig7.####.obj
-	./target/release/activeskin info $(OUT)/fig7.0048.vdb
+	./target/release/activeskin demo --out $(OUT)
+	./target/release/activeskin info $(OUT)/fig7/fig7.0048.vdb
 	@echo "demo: Fig. 7 morph (six blobs to two spheres) in ./$(OUT): fig7.####.vdb and fig7.####.obj"
 
 bench: deps

@@ -1,5 +1,6 @@
 //! The `activeskin` command line. `anyhow` lives here only; the library has typed errors.
 
+mod demo;
 mod info;
 mod mesh;
 mod morph;
@@ -34,6 +35,8 @@ enum Command {
     Skin(skin::SkinArgs),
     /// Morph a skin from one shape to another, writing a VDB (and mesh) sequence.
     Morph(morph::MorphArgs),
+    /// The built-in demo: the Fig. 7 morph and a moving target, written to ./out.
+    Demo(demo::DemoArgs),
     /// Mesh a level set (or a fog volume at --iso) with activeskin's polygonizer.
     Mesh(mesh::MeshArgs),
 }
@@ -46,6 +49,7 @@ pub fn run() -> ExitCode {
         Command::Skin(args) => skin::run(&args),
         Command::Morph(args) => morph::run(&args),
         Command::Mesh(args) => mesh::run(&args),
+        Command::Demo(args) => demo::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
