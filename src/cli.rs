@@ -5,6 +5,7 @@ mod info;
 mod mesh;
 mod morph;
 mod outputs;
+mod render;
 mod skin;
 
 use std::path::PathBuf;
@@ -35,6 +36,8 @@ enum Command {
     Skin(skin::SkinArgs),
     /// Morph a skin from one shape to another, writing a VDB (and mesh) sequence.
     Morph(morph::MorphArgs),
+    /// Render a level set (or a fog volume at --iso) to a multi-layer EXR or a PNG.
+    Render(render::RenderArgs),
     /// The built-in demo: the Fig. 7 morph and a moving target, written to ./out.
     Demo(demo::DemoArgs),
     /// Mesh a level set (or a fog volume at --iso) with activeskin's polygonizer.
@@ -50,6 +53,7 @@ pub fn run() -> ExitCode {
         Command::Morph(args) => morph::run(&args),
         Command::Mesh(args) => mesh::run(&args),
         Command::Demo(args) => demo::run(&args),
+        Command::Render(args) => render::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -21,6 +21,7 @@ pub mod grid;
 pub mod io;
 pub mod mesh;
 pub mod polygonize;
+pub mod render;
 pub mod sequence;
 pub mod skin;
 pub mod stencil;
@@ -38,4 +39,6 @@ pub enum Error {
     Skin(#[from] skin::SkinError),
     #[error(transparent)]
     Pattern(#[from] sequence::PatternError),
+    #[error(transparent)]
+    Render(#[from] render::RenderError),
 }

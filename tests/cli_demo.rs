@@ -20,7 +20,7 @@ fn demo_writes_both_sequences() {
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect();
-        assert_eq!(names.len(), 2 * 48 + 1, "{name}: {names:?}");
+        assert_eq!(names.len(), 3 * 48 + 1, "{name}: {names:?}");
         let grid =
             activeskin::vdb::Grid::read(&folder.join(format!("{name}.0048.vdb")), None).unwrap();
         assert_eq!(grid.check_level_set().unwrap(), Ok(()), "{name}");

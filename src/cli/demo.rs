@@ -1,6 +1,6 @@
 //! `activeskin demo [--out DIR]`: the built-in demo, no input needed — the Fig. 7 morph
 //! (six point skeletons → a pair of spheres: a filament, then a split) and a skin chasing
-//! a target that orbits and swells, each as VDB, OBJ and stats sequences.
+//! a target that orbits and swells, each as VDB, OBJ, EXR and stats sequences.
 
 use std::path::{Path, PathBuf};
 
@@ -29,6 +29,8 @@ fn outputs(dir: &Path, name: &str, quiet: bool) -> OutputArgs {
     OutputArgs {
         out: Some(file("vdb")),
         mesh: Some(file("obj")),
+        render: Some(file("exr")),
+        render_size: "480x270".into(),
         stats: Some(dir.join(format!("{name}/stats.jsonl"))),
         resume: false,
         quiet,
@@ -91,7 +93,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     })?;
 
     let shown = args.out.display();
-    println!("wrote {shown}/fig7/fig7.####.{{vdb,obj}} and {shown}/orbit/orbit.####.{{vdb,obj}}, with stats.jsonl in each");
+    println!("wrote {shown}/fig7/fig7.####.{{vdb,obj,exr}} and {shown}/orbit/orbit.####.{{vdb,obj,exr}}, with stats.jsonl in each");
     println!("look at them: Houdini File SOP on {shown}/fig7/fig7.$F4.vdb, Blender Import > OpenVDB (sequence)");
     Ok(())
 }

@@ -6,11 +6,15 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use activeskin::grid::Precision;
+use activeskin::render::{self, View};
 use activeskin::sequence::FramePattern;
 use activeskin::skin::{AnySkin, SkinParams, SpeedParams, StepStats};
+use activeskin::target::{Aabb, LevelSetTarget, Target};
 use activeskin::vdb::{self, FileMetadata, Grid, GridData, WriteOptions};
 use anyhow::{bail, Context};
 use indicatif::{ProgressBar, ProgressStyle};
+
+use super::render::parse_size;
 
 /// The skin's physical and numerical options.
 #[derive(clap::Args)]
@@ -92,6 +96,13 @@ pub struct OutputArgs {
     /// Meshes, OBJ or PLY by extension, same patterns.
     #[arg(long)]
     pub mesh: Option<String>,
+    /// Renders: multi-layer EXR (RGBA, Z, N) or PNG by extension, same patterns; the
+    /// camera frames the first frame's skin and stays put.
+    #[arg(long)]
+    pub render: Option<String>,
+    /// Render size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "640x360")]
+    pub render_size: String,
     /// One JSON object per frame (frame, time, sub-steps, band nodes, blocks, area,
     /// volume, Euler characteristic, components, milliseconds).
     #[arg(long)]
@@ -108,6 +119,7 @@ pub struct OutputArgs {
 pub struct Outputs {
     out: Option<FramePattern>,
     mesh: Option<FramePattern>,
+    render: Option<(FramePattern, (usize, usize), Option<Aabb>)>,
     stats: Option<(PathBuf, Vec<u8>)>,
     progress: ProgressBar,
     plain: bool,
@@ -127,13 +139,28 @@ impl Outputs {
                 );
             }
         }
-        if out.is_none() && mesh.is_none() && args.stats.is_none() {
-            bail!("nothing to write: give --out, --mesh or --stats");
+        let render = match &args.render {
+            Some(spec) => {
+                let pattern = FramePattern::parse(spec)?;
+                let name = pattern.path(0);
+                let ext = name.extension().and_then(|e| e.to_str()).unwrap_or("");
+                if !ext.eq_ignore_ascii_case("exr") && !ext.eq_ignore_ascii_case("png") {
+                    bail!(
+                        "--render '{}': renders must end in .exr or .png",
+                        name.display()
+                    );
+                }
+                Some((pattern, parse_size(&args.render_size)?, None))
+            }
+            None => None,
+        };
+        if out.is_none() && mesh.is_none() && render.is_none() && args.stats.is_none() {
+            bail!("nothing to write: give --out, --mesh, --render or --stats");
         }
         if args.resume && out.is_none() {
             bail!("--resume needs --out: it continues from the last skin VDB written there");
         }
-        for pattern in out.iter().chain(&mesh) {
+        for pattern in out.iter().chain(&mesh).chain(render.iter().map(|r| &r.0)) {
             let folder = pattern.folder();
             std::fs::create_dir_all(&folder).with_context(|| {
                 format!("{}: cannot create the output folder", folder.display())
@@ -155,6 +182,7 @@ impl Outputs {
         Ok(Outputs {
             out,
             mesh,
+            render,
             stats: args.stats.clone().map(|p| (p, Vec::new())),
             progress,
             plain: !args.quiet && !terminal,
@@ -190,6 +218,20 @@ impl Outputs {
         }
         if let Some(pattern) = &self.mesh {
             skin.mesh().write(&pattern.path(frame))?;
+        }
+        if let Some((pattern, size, camera)) = &mut self.render {
+            let data = match &written {
+                Some(data) => data,
+                None => &skin.to_level_set(),
+            };
+            let dx = data.transform.voxel_size() as f32;
+            let target = LevelSetTarget::new(data);
+            let bounds = target.bounds();
+            let frame_box = *camera.get_or_insert_with(|| {
+                bounds.padded(0.25 * (bounds.max - bounds.min).max_element())
+            });
+            render::render(&target, frame_box, View::Perspective, *size, dx)
+                .write(&pattern.path(frame))?;
         }
         let ms = started.elapsed().as_secs_f64() * 1e3;
         let line = serde_json::json!({

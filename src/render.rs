@@ -1,0 +1,223 @@
+//! A quick look at a surface: rays sphere-traced through a target's signed distance, shaded
+//! with one key light; written as a multi-layer EXR (RGBA beauty, Z depth, N normals in
+//! world space, as Nuke and Blender name them) or as an 8-bit PNG.
+
+use std::io::BufWriter;
+use std::path::Path;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::target::{Aabb, Target};
+
+/// Where the camera looks from, toward the centre of the framed box.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum View {
+    /// Looking down −z.
+    Front,
+    /// Looking down −x.
+    Side,
+    /// Looking down −y, z up the image.
+    Top,
+    /// From the (+x, +y, +z) diagonal, slightly above.
+    #[default]
+    Perspective,
+}
+
+/// One rendered image.
+pub struct Render {
+    pub width: usize,
+    pub height: usize,
+    /// Linear RGBA, premultiplied; row-major from the top-left pixel.
+    pub rgba: Vec<[f32; 4]>,
+    /// Distance from the eye along the ray; infinite where the ray missed.
+    pub depth: Vec<f32>,
+    /// World-space unit normal where the ray hit, zero elsewhere.
+    pub normal: Vec<Vec3>,
+}
+
+/// A surface could not be rendered or written.
+#[derive(Debug, thiserror::Error)]
+#[error("{path}: {message}")]
+pub struct RenderError {
+    pub path: String,
+    pub message: String,
+}
+
+/// Renders the zero set of `target` inside `frame` (a box the camera fits), marching in
+/// steps no longer than `step` once near the surface.
+pub fn render(
+    target: &dyn Target,
+    frame: Aabb,
+    view: View,
+    size: (usize, usize),
+    step: f32,
+) -> Render {
+    let (width, height) = size;
+    let centre = 0.5 * (frame.min + frame.max);
+    let radius = 0.5 * (frame.max - frame.min).length().max(1e-6);
+    let (direction, up) = match view {
+        View::Front => (Vec3::NEG_Z, Vec3::Y),
+        View::Side => (Vec3::NEG_X, Vec3::Y),
+        View::Top => (Vec3::NEG_Y, Vec3::NEG_Z),
+        View::Perspective => (Vec3::new(-1.0, -0.7, -1.0).normalize(), Vec3::Y),
+    };
+    // A 30° vertical field of view whose cone holds the box's bounding sphere.
+    let half_fov = 15f32.to_radians();
+    let aspect = width as f32 / height.max(1) as f32;
+    let fit = half_fov.tan() * aspect.min(1.0);
+    let distance = radius / fit.atan().sin();
+    let eye = centre - direction * distance;
+    let right = direction.cross(up).normalize();
+    let up = right.cross(direction);
+    let light = (up - right * 0.6 - direction * 0.8).normalize();
+
+    let pixels: Vec<(Option<(f32, Vec3)>, Vec3)> = (0..width * height)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i % width, i / width);
+            let u = (2.0 * (x as f32 + 0.5) / width as f32 - 1.0) * half_fov.tan() * aspect;
+            let v = (1.0 - 2.0 * (y as f32 + 0.5) / height as f32) * half_fov.tan();
+            let ray = (direction + right * u + up * v).normalize();
+            (trace(target, eye, ray, frame, step), ray)
+        })
+        .collect();
+    let mut out = Render {
+        width,
+        height,
+        rgba: Vec::with_capacity(pixels.len()),
+        depth: Vec::with_capacity(pixels.len()),
+        normal: Vec::with_capacity(pixels.len()),
+    };
+    let albedo = Vec3::new(0.72, 0.74, 0.78);
+    for (hit, ray) in pixels {
+        match hit {
+            Some((t, _)) => {
+                let p = eye + ray * t;
+                let n = normal_at(target, p, 0.5 * step);
+                let diffuse = n.dot(light).max(0.0);
+                let rim = (1.0 + n.dot(ray)).powi(3) * 0.15;
+                let c = albedo * (0.12 + 0.88 * diffuse) + Vec3::splat(rim);
+                out.rgba.push([c.x, c.y, c.z, 1.0]);
+                out.depth.push(t);
+                out.normal.push(n);
+            }
+            None => {
+                out.rgba.push([0.0; 4]);
+                out.depth.push(f32::INFINITY);
+                out.normal.push(Vec3::ZERO);
+            }
+        }
+    }
+    out
+}
+
+/// Distance along the ray to the first crossing into the surface, sphere-traced.
+fn trace(target: &dyn Target, eye: Vec3, ray: Vec3, frame: Aabb, step: f32) -> Option<(f32, Vec3)> {
+    let (near, far) = slab(eye, ray, frame)?;
+    let mut t = near;
+    let mut d = target.distance(eye + ray * t);
+    if d <= 0.0 {
+        return Some((t, eye + ray * t));
+    }
+    while t < far {
+        // A level set's distance is clamped to its band: never step past one band's width,
+        // nor less than a fraction of a voxel.
+        let advance = d.clamp(0.25 * step, 4.0 * step);
+        let (t0, d0) = (t, d);
+        t += advance;
+        d = target.distance(eye + ray * t);
+        if d <= 0.0 {
+            // Secant between the last point outside and this one inside.
+            let t_hit = t0 + advance * d0 / (d0 - d);
+            return Some((t_hit, eye + ray * t_hit));
+        }
+    }
+    None
+}
+
+/// Entry and exit distances of a ray through a box.
+fn slab(eye: Vec3, ray: Vec3, frame: Aabb) -> Option<(f32, f32)> {
+    let inv = ray.recip();
+    let a = (frame.min - eye) * inv;
+    let b = (frame.max - eye) * inv;
+    let near = a.min(b).max_element().max(0.0);
+    let far = a.max(b).min_element();
+    (near < far).then_some((near, far))
+}
+
+fn normal_at(target: &dyn Target, p: Vec3, h: f32) -> Vec3 {
+    let d = |e: Vec3| target.distance(p + e * h) - target.distance(p - e * h);
+    Vec3::new(d(Vec3::X), d(Vec3::Y), d(Vec3::Z)).normalize_or_zero()
+}
+
+impl Render {
+    /// Writes by extension: `.exr` (RGBA, Z, N.X/N.Y/N.Z) or `.png` (beauty over grey).
+    pub fn write(&self, path: &Path) -> Result<(), RenderError> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        let error = |message: String| RenderError {
+            path: path.display().to_string(),
+            message,
+        };
+        let write: fn(&Render, &Path) -> Result<(), String> = match ext.as_deref() {
+            Some("exr") => Render::write_exr,
+            Some("png") => Render::write_png,
+            _ => return Err(error("renders must end in .exr or .png".into())),
+        };
+        crate::io::write_atomically(path, |tmp| write(self, tmp)).map_err(error)
+    }
+
+    fn write_exr(&self, path: &Path) -> Result<(), String> {
+        use exr::prelude::*;
+        let flat = |f: &dyn Fn(usize) -> f32| -> FlatSamples {
+            FlatSamples::F32((0..self.rgba.len()).map(f).collect())
+        };
+        let channel = |name: &str, f: &dyn Fn(usize) -> f32| AnyChannel::new(name, flat(f));
+        let channels = AnyChannels::sort(SmallVec::from_vec(vec![
+            channel("R", &|i| self.rgba[i][0]),
+            channel("G", &|i| self.rgba[i][1]),
+            channel("B", &|i| self.rgba[i][2]),
+            channel("A", &|i| self.rgba[i][3]),
+            channel("Z", &|i| self.depth[i]),
+            channel("N.X", &|i| self.normal[i].x),
+            channel("N.Y", &|i| self.normal[i].y),
+            channel("N.Z", &|i| self.normal[i].z),
+        ]));
+        let layer = Layer::new(
+            (self.width, self.height),
+            LayerAttributes::named("surface"),
+            Encoding::FAST_LOSSLESS,
+            channels,
+        );
+        Image::from_layer(layer)
+            .write()
+            .to_file(path)
+            .map_err(|e| e.to_string())
+    }
+
+    fn write_png(&self, path: &Path) -> Result<(), String> {
+        let file = std::fs::File::create(path).map_err(|e| e.to_string())?;
+        let mut encoder =
+            png::Encoder::new(BufWriter::new(file), self.width as u32, self.height as u32);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        let background = 0.18f32;
+        let bytes: Vec<u8> = self
+            .rgba
+            .iter()
+            .flat_map(|&[r, g, b, a]| {
+                [r, g, b].map(|c| {
+                    let linear = c + background * (1.0 - a);
+                    (255.0 * linear.clamp(0.0, 1.0).powf(1.0 / 2.2)).round() as u8
+                })
+            })
+            .collect();
+        encoder
+            .write_header()
+            .and_then(|mut w| w.write_image_data(&bytes))
+            .map_err(|e| e.to_string())
+    }
+}
