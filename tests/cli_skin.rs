@@ -412,3 +412,69 @@ fn bad_usage_and_unusable_grids_are_one_line_errors() {
     let result = activeskin(&skin_args(&target, inside.to_str().unwrap(), &[]));
     assert_one_line_error(&result, "blocker");
 }
+
+#[test]
+fn frames_with_other_voxel_sizes_and_rotated_transforms_are_sampled_in_world_space() {
+    // A sphere of radius 0.3 at (0.1, 0, 0), written at three voxel sizes, the last one
+    // with its index space rotated 30° about z and translated to keep the sphere put.
+    let dir = tempfile::tempdir().unwrap();
+    let centre = Vec3::new(0.1, 0.0, 0.0);
+    let radius = 0.3;
+    for (frame, dx) in [
+        (1, 1.0 / 16.0),
+        (2, 1.0 / 20.0),
+        (3, 1.0 / 12.0),
+        (4, 1.0 / 16.0),
+    ] {
+        let rotated = frame == 4;
+        // Sampled off the grid's origin, then turned and moved there by the transform.
+        let local = Vec3::new(0.2, 0.0, 0.0);
+        let sphere = Sphere {
+            center: local,
+            radius,
+        };
+        let mut grid = sample::level_set(&sphere as &dyn Target, dx, 3.0);
+        let m = &mut grid.transform.matrix;
+        let (s, c) = if rotated {
+            30f64.to_radians().sin_cos()
+        } else {
+            (0.0, 1.0)
+        };
+        let d = f64::from(dx);
+        // Rows are the world images of the index axes: world = i·row0 + j·row1 + t.
+        m[0] = c * d;
+        m[1] = s * d;
+        m[4] = -s * d;
+        m[5] = c * d;
+        let turned = (c * f64::from(local.x), s * f64::from(local.x));
+        m[12] = f64::from(centre.x) - turned.0;
+        m[13] = f64::from(centre.y) - turned.1;
+        write_grid(&dir.path().join(format!("ball.{frame:04}.vdb")), &grid);
+    }
+    let target = dir.path().join("ball.####.vdb");
+    let mesh = dir.path().join("out/ball.####.obj");
+    let result = activeskin(&[
+        "skin",
+        "--target",
+        target.to_str().unwrap(),
+        "--alpha",
+        "24",
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_ok(&result);
+    let truth = Sphere {
+        center: centre,
+        radius,
+    };
+    for frame in 1..=4 {
+        let mesh = read_obj(&dir.path().join(format!("out/ball.{frame:04}.obj")));
+        let max = mesh
+            .positions
+            .iter()
+            .map(|&p| f64::from(truth.distance(p).abs()) / DATA_DX)
+            .fold(0.0, f64::max);
+        assert!(max <= 0.5, "frame {frame}: {max:.2} voxels off");
+    }
+}

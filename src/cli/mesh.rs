@@ -63,13 +63,28 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
         .max(f32::MIN_POSITIVE);
     let mut grid: SparseGrid<f32> = SparseGrid::from_vdb(&data, |v| sign * (v - iso) / range);
     band::upkeep(&mut grid);
-    let origin = data.transform.index_to_world([0.0; 3]).map(|c| c as f32);
-    let xf = IndexToWorld {
-        origin: Vec3::from(origin),
-        dx: data.transform.voxel_size() as f32,
+    // Meshed in index space, then carried by the grid's transform (which may rotate).
+    let index = IndexToWorld {
+        origin: Vec3::ZERO,
+        dx: 1.0,
     };
     let mut mesh = Mesh::default();
-    Polygonizer::default().run(&grid, xf, &mut mesh, &mut Crossings::default());
+    Polygonizer::default().run(&grid, index, &mut mesh, &mut Crossings::default());
+    let xf = &data.transform;
+    let origin = Vec3::from(xf.index_to_world([0.0; 3]).map(|c| c as f32));
+    let to_world =
+        |p: Vec3| Vec3::from(xf.index_to_world(p.as_dvec3().to_array()).map(|c| c as f32));
+    for p in &mut mesh.positions {
+        *p = to_world(*p);
+    }
+    for n in &mut mesh.normals {
+        *n = (to_world(*n) - origin).normalize_or_zero();
+    }
+    let axes = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| to_world(a) - origin);
+    if axes[0].cross(axes[1]).dot(axes[2]) < 0.0 {
+        // A mirroring transform turns the winding inside out.
+        mesh.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+    }
     mesh.write(&args.output)?;
     let topology = mesh.topology();
     println!(

@@ -3,7 +3,7 @@
 
 use super::{density_distance, Aabb, Target};
 use crate::vdb::{GridData, LEAF_VOXELS};
-use glam::{IVec3, Vec3};
+use glam::{IVec3, Mat3, Vec3};
 use hashbrown::HashMap;
 
 /// Voxel lookup over a grid copied from VDB, with its tiles.
@@ -14,7 +14,10 @@ struct Sampler {
     tiles: [HashMap<IVec3, f32>; 3],
     background: f32,
     origin: Vec3,
-    inv_dx: f32,
+    /// World → index, without the translation: transforms rotated or translated by a
+    /// DCC are sampled where they are.
+    to_index: Mat3,
+    dx: f32,
     bounds: Aabb,
 }
 
@@ -35,8 +38,14 @@ impl Sampler {
             }
         }
         let dx = data.transform.voxel_size() as f32;
-        let m = &data.transform.matrix;
-        let origin = Vec3::new(m[12] as f32, m[13] as f32, m[14] as f32);
+        let m = data.transform.matrix.map(|v| v as f32);
+        let origin = Vec3::new(m[12], m[13], m[14]);
+        // Row-vector matrix: world = i·row0 + j·row1 + k·row2 + origin.
+        let to_world = Mat3::from_cols(
+            Vec3::new(m[0], m[1], m[2]),
+            Vec3::new(m[4], m[5], m[6]),
+            Vec3::new(m[8], m[9], m[10]),
+        );
         // Bounds of stored leaves and tiles: everything beyond is background.
         let mut lo = IVec3::splat(i32::MAX);
         let mut hi = IVec3::splat(i32::MIN);
@@ -52,17 +61,33 @@ impl Sampler {
             lo = IVec3::ZERO;
             hi = IVec3::ZERO;
         }
-        let bounds = Aabb {
-            min: origin + lo.as_vec3() * dx,
-            max: origin + hi.as_vec3() * dx,
-        };
+        let corners = (0..8).map(|c| {
+            let pick = |bit: i32, a: i32, b: i32| if c >> bit & 1 == 1 { b } else { a };
+            let ijk = IVec3::new(
+                pick(0, lo.x, hi.x),
+                pick(1, lo.y, hi.y),
+                pick(2, lo.z, hi.z),
+            );
+            origin + to_world * ijk.as_vec3()
+        });
+        let bounds = corners.fold(
+            Aabb {
+                min: Vec3::INFINITY,
+                max: Vec3::NEG_INFINITY,
+            },
+            |b, p| Aabb {
+                min: b.min.min(p),
+                max: b.max.max(p),
+            },
+        );
         Sampler {
             leaves,
             values: data.leaf_values.clone(),
             tiles,
             background: data.background,
             origin,
-            inv_dx: 1.0 / dx,
+            to_index: to_world.inverse(),
+            dx,
             bounds,
         }
     }
@@ -82,7 +107,7 @@ impl Sampler {
     }
 
     fn trilinear(&self, p: Vec3) -> f32 {
-        let q = (p - self.origin) * self.inv_dx;
+        let q = self.to_index * (p - self.origin);
         let base = q.floor();
         let t = q - base;
         let b = base.as_ivec3();
@@ -130,7 +155,7 @@ pub struct FogTarget {
 impl FogTarget {
     pub fn new(data: &GridData, iso: f32) -> Self {
         let sampler = Sampler::new(data);
-        let dx = 1.0 / sampler.inv_dx;
+        let dx = sampler.dx;
         FogTarget { sampler, iso, dx }
     }
 }
