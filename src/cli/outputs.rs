@@ -298,6 +298,33 @@ impl Outputs {
     }
 }
 
+/// Removes the temporary files a killed run left behind for this pattern's frames
+/// (`.NAME.PID.tmp`, see [`activeskin::io::temporary_path`]).
+fn remove_stale_temporaries(pattern: &FramePattern) {
+    let folder = pattern.folder();
+    let Ok(entries) = std::fs::read_dir(&folder) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let Some(inner) = name.strip_prefix('.').and_then(|n| n.strip_suffix(".tmp")) else {
+            continue;
+        };
+        let Some((frame_file, pid)) = inner.rsplit_once('.') else {
+            continue;
+        };
+        let frame_path = pattern.path(0).with_file_name(frame_file);
+        let ours = pid.bytes().all(|b| b.is_ascii_digit())
+            && frame_path
+                .to_str()
+                .and_then(|p| pattern.frame_of(p))
+                .is_some();
+        if ours {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+}
+
 fn write_file(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
     activeskin::io::write_atomically(path, |tmp| {
         std::fs::File::create(tmp)
