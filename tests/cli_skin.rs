@@ -539,6 +539,8 @@ fn killed_then_resumed_equals_uninterrupted() {
             "frame {frame} damaged"
         );
     }
+    // What a kill inside a write leaves (whether this kill did or not).
+    std::fs::write(part.path().join(".m.0015.vdb.4242.tmp"), b"half a frame").unwrap();
     assert_ok(&activeskin(
         &run(part.path(), true)
             .iter()

@@ -165,6 +165,7 @@ impl Outputs {
             std::fs::create_dir_all(&folder).with_context(|| {
                 format!("{}: cannot create the output folder", folder.display())
             })?;
+            remove_stale_temporaries(pattern);
         }
         let terminal = std::io::stderr().is_terminal();
         let progress = if args.quiet || !terminal {
