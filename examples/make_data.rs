@@ -1,7 +1,7 @@
 //! Writes the sample target sequences of `data/` (analytic shapes sampled into VDB level
 //! sets): `cargo run --release --example make_data [-- OUT_DIR]`.
 //!
-//! Voxel size 1/16, half-float values, 8 frames each (about 500 KB in all):
+//! Voxel size 1/16, half-float values, 8 frames each, around (1.5, 1.5, 1.5):
 //! - `moving/sphere.####.vdb`: a sphere of radius 0.3 gliding 0.2 along x.
 //! - `splitting/pair.####.vdb`: two overlapping spheres of radius 0.25 that move apart
 //!   and separate (a merge, read backwards).
@@ -13,6 +13,11 @@ use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
 use glam::Vec3;
 
 const DX: f32 = 1.0 / 16.0;
+
+/// Every shape sits around this point, inside one of OpenVDB's top-level nodes (4096
+/// voxels from the origin): a shape straddling the origin touches eight, whose masks,
+/// written uncompressed, would make each file five times larger.
+const CENTRE: Vec3 = Vec3::splat(1.5);
 
 fn write(target: &dyn Target, path: PathBuf, frame: i64) -> Result<(), activeskin::Error> {
     let grid = Grid::from_data(&sample::level_set(target, DX, 3.0))?;
@@ -33,7 +38,7 @@ fn main() -> Result<(), activeskin::Error> {
     for frame in 1..=8 {
         let t = (frame - 1) as f32 / 7.0;
         let sphere = Sphere {
-            center: Vec3::new(-0.1 + 0.2 * t, 0.0, 0.0),
+            center: CENTRE + Vec3::new(-0.1 + 0.2 * t, 0.0, 0.0),
             radius: 0.3,
         };
         write(
@@ -44,11 +49,11 @@ fn main() -> Result<(), activeskin::Error> {
         let gap = 0.3 + 0.5 * t;
         let pair = Union(vec![
             Box::new(Sphere {
-                center: Vec3::new(-gap / 2.0, 0.0, 0.0),
+                center: CENTRE + Vec3::new(-gap / 2.0, 0.0, 0.0),
                 radius: 0.25,
             }) as Box<dyn Target>,
             Box::new(Sphere {
-                center: Vec3::new(gap / 2.0, 0.0, 0.0),
+                center: CENTRE + Vec3::new(gap / 2.0, 0.0, 0.0),
                 radius: 0.25,
             }),
         ]);

@@ -141,7 +141,7 @@ fn moving_sphere_every_frame_valid_and_on_target() {
         // The target of this frame, as examples/make_data.rs made it.
         let t = (frame - 1) as f32 / 7.0;
         let target = Sphere {
-            center: Vec3::new(-0.1 + 0.2 * t, 0.0, 0.0),
+            center: Vec3::splat(1.5) + Vec3::new(-0.1 + 0.2 * t, 0.0, 0.0),
             radius: 0.3,
         };
         let mesh = read_obj(&dir.path().join(format!("skin.{frame:04}.obj")));
