@@ -560,3 +560,48 @@ fn killed_then_resumed_equals_uninterrupted() {
         .zip(&b.leaf_values)
         .all(|(x, y)| x.to_bits() == y.to_bits()));
 }
+
+#[test]
+fn init_starts_the_skin_on_another_shape() {
+    let dir = tempfile::tempdir().unwrap();
+    let init = dir.path().join("init.vdb");
+    let small = Sphere {
+        center: Vec3::splat(1.5),
+        radius: 0.15,
+    };
+    write_grid(
+        &init,
+        &sample::level_set(&small as &dyn Target, DATA_DX as f32, 3.0),
+    );
+    let stats = dir.path().join("stats.jsonl");
+    let result = activeskin(&[
+        "skin",
+        "--target",
+        &data("moving/sphere.####.vdb"),
+        "--init",
+        init.to_str().unwrap(),
+        "--alpha",
+        "24",
+        "--stats",
+        stats.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_ok(&result);
+    let areas: Vec<f64> = std::fs::read_to_string(&stats)
+        .unwrap()
+        .lines()
+        .map(|l| {
+            serde_json::from_str::<serde_json::Value>(l).unwrap()["area"]
+                .as_f64()
+                .unwrap()
+        })
+        .collect();
+    let area = |r: f64| 4.0 * std::f64::consts::PI * r * r;
+    // Frame 1 is the init sphere; the skin then grows toward the target's radius 0.3.
+    assert!(
+        (areas[0] - area(0.15)).abs() / area(0.15) < 0.1,
+        "{areas:?}"
+    );
+    assert!(areas.windows(2).all(|w| w[1] > w[0]), "{areas:?}");
+    assert!(areas[7] > 0.9 * area(0.3), "{areas:?}");
+}
