@@ -7,6 +7,7 @@ mod morph;
 mod outputs;
 mod render;
 mod skin;
+mod validate;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -38,6 +39,9 @@ enum Command {
     Morph(morph::MorphArgs),
     /// Render a level set (or a fog volume at --iso) to a multi-layer EXR or a PNG.
     Render(render::RenderArgs),
+    /// Compare our mesh and measures with OpenVDB's on a level set (exit 1 when out of
+    /// tolerance).
+    Validate(validate::ValidateArgs),
     /// The built-in demo: the Fig. 7 morph and a moving target, written to ./out.
     Demo(demo::DemoArgs),
     /// Mesh a level set (or a fog volume at --iso) with activeskin's polygonizer.
@@ -54,6 +58,7 @@ pub fn run() -> ExitCode {
         Command::Mesh(args) => mesh::run(&args),
         Command::Demo(args) => demo::run(&args),
         Command::Render(args) => render::run(&args),
+        Command::Validate(args) => validate::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

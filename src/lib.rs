@@ -26,6 +26,7 @@ pub mod sequence;
 pub mod skin;
 pub mod stencil;
 pub mod target;
+pub mod validate;
 pub mod vdb;
 
 /// Every error of the library, one variant per stage.

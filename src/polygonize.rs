@@ -33,6 +33,7 @@ use crate::grid::{
     node_offset, offset_coords, Block, BlockId, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES,
 };
 use crate::mesh::Mesh;
+use crate::vdb::GridData;
 
 /// Corners of each edge, ordered along its axis.
 const EDGE_CORNERS: [(usize, usize); 12] = [
@@ -383,4 +384,33 @@ fn cube_triangles(halo: &Halo, l: IVec3, crossings: &LocalCrossings, out: &mut V
             out.push([lp[0], lp[i], lp[i + 1]]);
         }
     }
+}
+
+/// Meshes a grid copied from VDB, `value` mapping its values into [-1, 1] with the surface
+/// at 0 and negative inside; in index space, then carried by the grid's full transform.
+pub fn mesh_vdb(data: &GridData, value: impl Fn(f32) -> f32) -> Mesh {
+    let mut grid: SparseGrid<f32> = SparseGrid::from_vdb(data, value);
+    crate::skin::band::upkeep(&mut grid);
+    let index = IndexToWorld {
+        origin: Vec3::ZERO,
+        dx: 1.0,
+    };
+    let mut mesh = Mesh::default();
+    Polygonizer::default().run(&grid, index, &mut mesh, &mut Crossings::default());
+    let xf = &data.transform;
+    let to_world =
+        |p: Vec3| Vec3::from(xf.index_to_world(p.as_dvec3().to_array()).map(|c| c as f32));
+    let origin = to_world(Vec3::ZERO);
+    for p in &mut mesh.positions {
+        *p = to_world(*p);
+    }
+    for n in &mut mesh.normals {
+        *n = (to_world(*n) - origin).normalize_or_zero();
+    }
+    let axes = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| to_world(a) - origin);
+    if axes[0].cross(axes[1]).dot(axes[2]) < 0.0 {
+        // A mirroring transform turns the winding inside out.
+        mesh.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+    }
+    mesh
 }

@@ -370,9 +370,8 @@ impl<P: Potential> Skin<P> {
     /// The skin as a narrow-band level set: signed distance φ = f·wΔx in world units,
     /// active where |φ| < wΔx, background wΔx, inside tiles at −wΔx (grid `surface`).
     pub fn to_level_set(&self) -> GridData {
-        let w = self.params.band_width;
         let dx = self.params.dx;
-        let background = w * dx;
+        let background = self.background();
         let blocks = self.grid.blocks();
         let mut data = GridData {
             name: "surface".into(),
@@ -429,11 +428,16 @@ impl<P: Potential> Skin<P> {
                 data.name
             )));
         }
-        let scale = self.params.band_width * self.params.dx;
+        let scale = self.background();
         self.grid = SparseGrid::from_vdb(data, |phi| phi / scale);
         band::upkeep(&mut self.grid);
         self.polygonize();
         Ok(())
+    }
+
+    /// The exported level set's background, w·Δx: the world distance of f = 1.
+    fn background(&self) -> f32 {
+        crate::vdb::narrow_band_background(self.params.band_width, self.params.dx)
     }
 
     /// Sets the clock (seconds), e.g. after [`Skin::restore`].

@@ -291,6 +291,18 @@ impl Grid {
     }
 }
 
+/// The background of a narrow band `half_width` voxels of `voxel_size` wide: the smallest
+/// f32 not below `half_width · voxel_size` computed in f64, as OpenVDB's checkLevelSet
+/// compares it (an f32 product can round a hair under 3 voxels and be rejected).
+pub fn narrow_band_background(half_width: f32, voxel_size: f32) -> f32 {
+    let exact = f64::from(half_width) * f64::from(voxel_size);
+    let mut background = exact as f32;
+    while f64::from(background) < exact {
+        background = f32::from_bits(background.to_bits() + 1);
+    }
+    background
+}
+
 /// How one grid is stored by [`write_grids`].
 #[derive(Debug, Clone, Copy, Default)]
 pub struct WriteOptions {

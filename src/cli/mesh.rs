@@ -3,13 +3,9 @@
 
 use std::path::PathBuf;
 
-use activeskin::grid::SparseGrid;
-use activeskin::mesh::Mesh;
-use activeskin::polygonize::{Crossings, IndexToWorld, Polygonizer};
-use activeskin::skin::band;
+use activeskin::polygonize::mesh_vdb;
 use activeskin::vdb::{Grid, GridClass};
 use anyhow::bail;
-use glam::Vec3;
 
 #[derive(clap::Args)]
 pub struct MeshArgs {
@@ -61,30 +57,7 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
         .chain([&data.background])
         .fold(0.0f32, |m, &v| m.max((v - iso).abs()))
         .max(f32::MIN_POSITIVE);
-    let mut grid: SparseGrid<f32> = SparseGrid::from_vdb(&data, |v| sign * (v - iso) / range);
-    band::upkeep(&mut grid);
-    // Meshed in index space, then carried by the grid's transform (which may rotate).
-    let index = IndexToWorld {
-        origin: Vec3::ZERO,
-        dx: 1.0,
-    };
-    let mut mesh = Mesh::default();
-    Polygonizer::default().run(&grid, index, &mut mesh, &mut Crossings::default());
-    let xf = &data.transform;
-    let origin = Vec3::from(xf.index_to_world([0.0; 3]).map(|c| c as f32));
-    let to_world =
-        |p: Vec3| Vec3::from(xf.index_to_world(p.as_dvec3().to_array()).map(|c| c as f32));
-    for p in &mut mesh.positions {
-        *p = to_world(*p);
-    }
-    for n in &mut mesh.normals {
-        *n = (to_world(*n) - origin).normalize_or_zero();
-    }
-    let axes = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| to_world(a) - origin);
-    if axes[0].cross(axes[1]).dot(axes[2]) < 0.0 {
-        // A mirroring transform turns the winding inside out.
-        mesh.triangles.iter_mut().for_each(|t| t.swap(1, 2));
-    }
+    let mesh = mesh_vdb(&data, |v| sign * (v - iso) / range);
     mesh.write(&args.output)?;
     let topology = mesh.topology();
     println!(

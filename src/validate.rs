@@ -1,0 +1,260 @@
+//! Our polygonizer and measures against OpenVDB's on the same level set: volumeToMesh
+//! (area, enclosed volume, symmetric Hausdorff distance, Euler characteristic),
+//! LevelSetMeasure (area, volume, χ) and checkLevelSet.
+
+use glam::{IVec3, Vec3};
+use hashbrown::HashMap;
+use rayon::prelude::*;
+
+use crate::mesh::Mesh;
+use crate::polygonize::mesh_vdb;
+use crate::vdb::{Grid, GridClass, VdbError};
+
+/// Relative tolerance on areas and volumes.
+pub const RELATIVE_TOLERANCE: f64 = 0.005;
+/// Tolerance on the symmetric Hausdorff distance, voxels.
+pub const HAUSDORFF_TOLERANCE: f64 = 0.5;
+
+/// One quantity, ours against OpenVDB's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Row {
+    pub name: &'static str,
+    pub ours: f64,
+    pub openvdb: f64,
+    /// Relative for areas and volumes, absolute otherwise.
+    pub difference: f64,
+    pub tolerance: f64,
+}
+
+impl Row {
+    pub fn passes(&self) -> bool {
+        self.difference <= self.tolerance
+    }
+}
+
+/// The comparison of one grid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Report {
+    pub rows: Vec<Row>,
+    /// checkLevelSet's diagnostic, empty when valid.
+    pub check: String,
+}
+
+impl Report {
+    pub fn passes(&self) -> bool {
+        self.check.is_empty() && self.rows.iter().all(Row::passes)
+    }
+}
+
+/// Our mesh of a level set grid (world space, through its full transform).
+pub fn our_mesh(grid: &Grid) -> Result<Mesh, VdbError> {
+    let data = grid.to_data()?;
+    let scale = data.background.abs().max(f32::MIN_POSITIVE);
+    Ok(mesh_vdb(&data, |phi| phi / scale))
+}
+
+/// OpenVDB's volumeToMesh at iso 0, quads split into triangles.
+pub fn openvdb_mesh(grid: &Grid) -> Result<Mesh, VdbError> {
+    let buffers = grid.volume_to_mesh(0.0, 0.0)?;
+    let mut mesh = Mesh {
+        positions: buffers
+            .points
+            .chunks_exact(3)
+            .map(|p| Vec3::new(p[0], p[1], p[2]))
+            .collect(),
+        triangles: buffers
+            .triangles
+            .chunks_exact(3)
+            .map(|t| [t[0], t[1], t[2]])
+            .collect(),
+        ..Mesh::default()
+    };
+    for q in buffers.quads.chunks_exact(4) {
+        mesh.triangles.push([q[0], q[1], q[2]]);
+        mesh.triangles.push([q[0], q[2], q[3]]);
+    }
+    // Whatever winding volumeToMesh chose, compare with outward-wound meshes.
+    if mesh.volume() < 0.0 {
+        mesh.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+    }
+    Ok(mesh)
+}
+
+/// Compares our mesh and measures with OpenVDB's on a level set.
+pub fn compare(grid: &Grid) -> Result<Report, VdbError> {
+    if grid.class() != GridClass::LevelSet {
+        return Err(VdbError::Grid(format!(
+            "grid '{}' is not a level set",
+            grid.name()
+        )));
+    }
+    let dx = grid.to_data()?.transform.voxel_size();
+    let ours = our_mesh(grid)?;
+    let theirs = openvdb_mesh(grid)?;
+    let measures = grid.measure_level_set()?;
+    let (area, volume) = ours.area_and_volume();
+    let (their_area, their_volume) = theirs.area_and_volume();
+    let relative = |a: f64, b: f64| (a - b).abs() / b.abs().max(f64::MIN_POSITIVE);
+    let row = |name, ours: f64, openvdb: f64, difference, tolerance| Row {
+        name,
+        ours,
+        openvdb,
+        difference,
+        tolerance,
+    };
+    let chi = ours.euler_characteristic() as f64;
+    let hausdorff = hausdorff(&ours, &theirs, dx as f32) / dx;
+    let check = match grid.check_level_set()? {
+        Ok(()) => String::new(),
+        Err(message) => message,
+    };
+    Ok(Report {
+        rows: vec![
+            row(
+                "area (volumeToMesh)",
+                area,
+                their_area,
+                relative(area, their_area),
+                RELATIVE_TOLERANCE,
+            ),
+            row(
+                "volume (volumeToMesh)",
+                volume,
+                their_volume,
+                relative(volume, their_volume),
+                RELATIVE_TOLERANCE,
+            ),
+            row(
+                "Hausdorff distance, voxels",
+                hausdorff,
+                0.0,
+                hausdorff,
+                HAUSDORFF_TOLERANCE,
+            ),
+            row(
+                "Euler characteristic (volumeToMesh)",
+                chi,
+                theirs.euler_characteristic() as f64,
+                (chi - theirs.euler_characteristic() as f64).abs(),
+                0.0,
+            ),
+            row(
+                "area (LevelSetMeasure)",
+                area,
+                measures.area,
+                relative(area, measures.area),
+                RELATIVE_TOLERANCE,
+            ),
+            row(
+                "volume (LevelSetMeasure)",
+                volume,
+                measures.volume,
+                relative(volume, measures.volume),
+                RELATIVE_TOLERANCE,
+            ),
+            row(
+                "Euler characteristic (LevelSetMeasure)",
+                chi,
+                f64::from(measures.euler_characteristic),
+                (chi - f64::from(measures.euler_characteristic)).abs(),
+                0.0,
+            ),
+        ],
+        check,
+    })
+}
+
+/// Symmetric Hausdorff distance between two meshes (world units), searched through a
+/// hashed grid of triangles with cells of `cell`: distances beyond two cells are reported
+/// as found among the triangles within two cells, or as infinite.
+pub fn hausdorff(a: &Mesh, b: &Mesh, cell: f32) -> f64 {
+    one_sided(a, b, cell).max(one_sided(b, a, cell))
+}
+
+fn one_sided(from: &Mesh, to: &Mesh, cell: f32) -> f64 {
+    let key = |p: Vec3| (p / cell).floor().as_ivec3();
+    let mut cells: HashMap<IVec3, Vec<u32>> = HashMap::new();
+    for (i, t) in to.triangles.iter().enumerate() {
+        let [p, q, r] = t.map(|v| to.positions[v as usize]);
+        let (lo, hi) = (key(p.min(q).min(r)), key(p.max(q).max(r)));
+        for x in lo.x..=hi.x {
+            for y in lo.y..=hi.y {
+                for z in lo.z..=hi.z {
+                    cells.entry(IVec3::new(x, y, z)).or_default().push(i as u32);
+                }
+            }
+        }
+    }
+    from.positions
+        .par_iter()
+        .map(|&p| {
+            let c = key(p);
+            let mut best = f32::INFINITY;
+            for x in -2..=2 {
+                for y in -2..=2 {
+                    for z in -2..=2 {
+                        let Some(list) = cells.get(&(c + IVec3::new(x, y, z))) else {
+                            continue;
+                        };
+                        for &t in list {
+                            let [a, b, c] =
+                                to.triangles[t as usize].map(|v| to.positions[v as usize]);
+                            best = best.min(point_triangle_distance(p, a, b, c));
+                        }
+                    }
+                }
+            }
+            f64::from(best)
+        })
+        .reduce(|| 0.0, f64::max)
+}
+
+/// Distance from `p` to triangle `abc` (Ericson, Real-Time Collision Detection, 5.1.5).
+fn point_triangle_distance(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return p.distance(a);
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return p.distance(b);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return p.distance(a + ab * (d1 / (d1 - d3)));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return p.distance(c);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return p.distance(a + ac * (d2 / (d2 - d6)));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return p.distance(b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    p.distance(a + ab * (vb * denom) + ac * (vc * denom))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::point_triangle_distance;
+    use glam::Vec3;
+
+    #[test]
+    fn point_triangle_distance_in_each_region() {
+        let (a, b, c) = (Vec3::ZERO, Vec3::X, Vec3::Y);
+        let d = |p: Vec3| point_triangle_distance(p, a, b, c);
+        assert!((d(Vec3::new(0.2, 0.2, 0.5)) - 0.5).abs() < 1e-6); // face
+        assert!((d(Vec3::new(-1.0, -1.0, 0.0)) - 2f32.sqrt()).abs() < 1e-6); // vertex a
+        assert!((d(Vec3::new(0.5, -2.0, 0.0)) - 2.0).abs() < 1e-6); // edge ab
+        assert!((d(Vec3::new(1.0, 1.0, 0.0)) - 0.5f32.sqrt()).abs() < 1e-6); // edge bc
+        assert!((d(Vec3::new(3.0, 0.0, 0.0)) - 2.0).abs() < 1e-6); // vertex b
+    }
+}
