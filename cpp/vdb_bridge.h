@@ -32,6 +32,7 @@ struct GridHeader;
 struct Tile;
 struct MeshBuffers;
 struct LevelSetMeasures;
+struct MorphTiming;
 struct FileMetadata;
 
 class FloatGrid {
@@ -80,6 +81,8 @@ void write_vector_grid_file(rust::Str path);
 
 MeshBuffers volume_to_mesh(const FloatGrid &grid, double isovalue, double adaptivity);
 LevelSetMeasures measure_level_set(const FloatGrid &grid);
+MorphTiming morph_timing(const FloatGrid &source, const FloatGrid &target, double duration);
+uint64_t mem_usage(const FloatGrid &grid);
 std::unique_ptr<FloatGrid> mesh_to_level_set(rust::Slice<const float> points,
                                              rust::Slice<const uint32_t> triangles,
                                              double voxel_size, float half_width);

@@ -4,6 +4,9 @@
 
 #include <openvdb/tools/Diagnostics.h>
 #include <openvdb/tools/LevelSetMeasure.h>
+#include <openvdb/tools/LevelSetMorph.h>
+
+#include <chrono>
 #include <openvdb/tools/MeshToVolume.h>
 #include <openvdb/tools/VolumeToMesh.h>
 
@@ -77,6 +80,21 @@ std::unique_ptr<FloatGrid> mesh_to_level_set(rust::Slice<const float> points,
   grid->setName("surface");
   return wrap(grid);
 }
+
+MorphTiming morph_timing(const FloatGrid &source, const FloatGrid &target, double duration) {
+  auto morphed = source.impl().grid->deepCopy();
+  openvdb::tools::LevelSetMorphing<openvdb::FloatGrid> morph(*morphed, *target.impl().grid);
+  const auto start = std::chrono::steady_clock::now();
+  const size_t iterations = morph.advect(0.0f, static_cast<float>(duration));
+  const std::chrono::duration<double> elapsed = std::chrono::steady_clock::now() - start;
+  MorphTiming t;
+  t.seconds = elapsed.count();
+  t.iterations = iterations;
+  t.active_voxels = morphed->activeVoxelCount();
+  return t;
+}
+
+uint64_t mem_usage(const FloatGrid &grid) { return grid.impl().grid->memUsage(); }
 
 rust::String check_level_set(const FloatGrid &handle) {
   return rust::String(openvdb::tools::checkLevelSet(*handle.impl().grid));

@@ -1,5 +1,6 @@
 //! The `activeskin` command line. `anyhow` lives here only; the library has typed errors.
 
+mod bench;
 mod demo;
 mod info;
 mod mesh;
@@ -42,6 +43,8 @@ enum Command {
     /// Compare our mesh and measures with OpenVDB's on a level set (exit 1 when out of
     /// tolerance).
     Validate(validate::ValidateArgs),
+    /// Ours and OpenVDB side by side: step throughput, meshing, memory, scaling.
+    Bench(bench::BenchArgs),
     /// The built-in demo: the Fig. 7 morph and a moving target, written to ./out.
     Demo(demo::DemoArgs),
     /// Mesh a level set (or a fog volume at --iso) with activeskin's polygonizer.
@@ -59,6 +62,7 @@ pub fn run() -> ExitCode {
         Command::Demo(args) => demo::run(&args),
         Command::Render(args) => render::run(&args),
         Command::Validate(args) => validate::run(&args),
+        Command::Bench(args) => bench::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

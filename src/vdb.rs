@@ -13,7 +13,9 @@ use std::path::{Path, PathBuf};
 use cxx::UniquePtr;
 use glam::Vec3;
 
-pub use ffi::bridge::{FileMetadata, GridClass, GridSummary, LevelSetMeasures, MeshBuffers, Tile};
+pub use ffi::bridge::{
+    FileMetadata, GridClass, GridSummary, LevelSetMeasures, MeshBuffers, MorphTiming, Tile,
+};
 
 /// Voxels per leaf (8³), in OpenVDB's order: offset = (x & 7) << 6 | (y & 7) << 3 | (z & 7).
 pub const LEAF_VOXELS: usize = 512;
@@ -277,6 +279,18 @@ impl Grid {
     /// OpenVDB's `LevelSetMeasure`: area, volume, mean curvature, Euler characteristic.
     pub fn measure_level_set(&self) -> Result<LevelSetMeasures, VdbError> {
         ffi::bridge::measure_level_set(&self.inner).map_err(|e| VdbError::Grid(one_line(e.what())))
+    }
+
+    /// OpenVDB's `LevelSetMorphing` of a copy of this grid toward `target` over
+    /// `duration`, timed in C++ (for side-by-side benchmarks).
+    pub fn morph_timing(&self, target: &Grid, duration: f64) -> Result<MorphTiming, VdbError> {
+        ffi::bridge::morph_timing(&self.inner, &target.inner, duration)
+            .map_err(|e| VdbError::Grid(one_line(e.what())))
+    }
+
+    /// OpenVDB's `memUsage()`: bytes held by the grid.
+    pub fn mem_usage(&self) -> u64 {
+        ffi::bridge::mem_usage(&self.inner)
     }
 
     /// OpenVDB's `checkLevelSet`: `Ok(())` when valid, else its diagnostic.

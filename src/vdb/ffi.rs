@@ -66,6 +66,16 @@ pub(crate) mod bridge {
         quads: Vec<u32>,
     }
 
+    /// Wall time of OpenVDB's `LevelSetMorphing` over an interval, measured in C++.
+    #[derive(Debug, Clone, Copy)]
+    struct MorphTiming {
+        seconds: f64,
+        /// CFL iterations (one upwind WENO5 / TVD-RK2 step each, plus band upkeep).
+        iterations: u64,
+        /// Active voxels of the morphed grid at the end.
+        active_voxels: u64,
+    }
+
     /// OpenVDB's `LevelSetMeasure` in world units.
     #[derive(Debug, Clone, Copy)]
     struct LevelSetMeasures {
@@ -139,6 +149,15 @@ pub(crate) mod bridge {
             voxel_size: f64,
             half_width: f32,
         ) -> Result<UniquePtr<FloatGrid>>;
+        /// `tools::LevelSetMorphing` of a copy of `source` toward `target` from time 0 to
+        /// `duration` (OpenVDB's default schemes), timed.
+        fn morph_timing(
+            source: &FloatGrid,
+            target: &FloatGrid,
+            duration: f64,
+        ) -> Result<MorphTiming>;
+        /// `Grid::memUsage()`, bytes.
+        fn mem_usage(grid: &FloatGrid) -> u64;
         /// `tools::checkLevelSet`: empty when the grid is a valid narrow-band level set.
         fn check_level_set(grid: &FloatGrid) -> Result<String>;
     }

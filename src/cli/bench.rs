@@ -1,0 +1,180 @@
+//! `activeskin bench [--json]`: ours and OpenVDB in one process, on the same input, as
+//! ratios (these machines are too noisy for absolute times to compare across runs).
+
+use std::time::Instant;
+
+use activeskin::grid::Fixed16;
+use activeskin::polygonize::mesh_vdb;
+use activeskin::skin::{Skin, SkinParams, SpeedParams};
+use activeskin::target::Sphere;
+use activeskin::vdb::Grid;
+use glam::Vec3;
+use serde_json::json;
+
+#[derive(clap::Args)]
+pub struct BenchArgs {
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+    /// Also run the largest scaling case (n = 1024: a sphere of radius 256 voxels).
+    #[arg(long)]
+    full: bool,
+}
+
+fn sphere(radius: f32) -> Sphere {
+    Sphere {
+        center: Vec3::ZERO,
+        radius,
+    }
+}
+
+fn params(dx: f32) -> SkinParams {
+    SkinParams {
+        dx,
+        speed: SpeedParams {
+            alpha: 2.0,
+            beta: 0.001 * dx / 0.01,
+            ..SpeedParams::default()
+        },
+        ..SkinParams::default()
+    }
+}
+
+/// Seconds per step and band nodes of our skin on a sphere of `voxels` radius moving
+/// toward one 4 % larger.
+fn our_step(voxels: f32, steps: usize) -> (f64, f64) {
+    let dx = 1.0 / voxels;
+    let mut skin: Skin<f32> = Skin::new(&sphere(1.0), params(dx));
+    let target = sphere(1.04);
+    let dt = skin.stable_dt(&target);
+    skin.step(&target, dt);
+    let mut nodes = 0usize;
+    let start = Instant::now();
+    for _ in 0..steps {
+        nodes += skin.grid().active_node_count();
+        skin.step(&target, dt);
+    }
+    let seconds = start.elapsed().as_secs_f64() / steps as f64;
+    (seconds, nodes as f64 / steps as f64)
+}
+
+pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    let threads = rayon::current_num_threads();
+    let mut report = serde_json::Map::new();
+    let mut lines = Vec::new();
+
+    // Per-step throughput, r = 100 voxels: one full step of ours (speed, update, upkeep,
+    // renormalisation, polygonization) against one CFL iteration of LevelSetMorphing.
+    let dx = 0.01f32;
+    let (our_seconds, our_nodes) = our_step(100.0, 10);
+    let source = Grid::level_set_sphere(1.0, [0.0; 3], dx, 3.0)?;
+    let target = Grid::level_set_sphere(1.04, [0.0; 3], dx, 3.0)?;
+    let morph = source.morph_timing(&target, 0.2)?;
+    let their_seconds = morph.seconds / morph.iterations.max(1) as f64;
+    let ours_rate = our_nodes / our_seconds;
+    let theirs_rate = morph.active_voxels as f64 / their_seconds;
+    report.insert(
+        "step".into(),
+        json!({"ours_band_nodes_per_s": ours_rate, "openvdb_active_voxels_per_s": theirs_rate,
+               "ours_ms": our_seconds * 1e3, "openvdb_ms_per_iteration": their_seconds * 1e3,
+               "openvdb_iterations": morph.iterations, "ratio": ours_rate / theirs_rate}),
+    );
+    lines.push(format!(
+        "step, sphere r = 100 voxels     ours {:.2} M nodes/s ({:.0} ms)   OpenVDB morph {:.2} M voxels/s ({:.0} ms/iteration)   ratio {:.2}×",
+        ours_rate / 1e6, our_seconds * 1e3, theirs_rate / 1e6, their_seconds * 1e3, ours_rate / theirs_rate
+    ));
+
+    // Meshing the same level set.
+    let data = source.to_data()?;
+    let scale = data.background;
+    let start = Instant::now();
+    let ours_mesh = mesh_vdb(&data, |phi| phi / scale);
+    let ours_mesh_s = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let theirs_mesh = source.volume_to_mesh(0.0, 0.0)?;
+    let theirs_mesh_s = start.elapsed().as_secs_f64();
+    report.insert(
+        "meshing".into(),
+        json!({"ours_ms": ours_mesh_s * 1e3, "openvdb_ms": theirs_mesh_s * 1e3,
+               "ours_triangles": ours_mesh.triangles.len(), "openvdb_polygons": theirs_mesh.triangles.len() / 3 + theirs_mesh.quads.len() / 4,
+               "speedup": theirs_mesh_s / ours_mesh_s}),
+    );
+    lines.push(format!(
+        "meshing, same level set         ours {:.1} ms   volumeToMesh {:.1} ms   speed-up {:.2}×",
+        ours_mesh_s * 1e3,
+        theirs_mesh_s * 1e3,
+        theirs_mesh_s / ours_mesh_s
+    ));
+
+    // Memory of the same skin.
+    let f32_bytes = Skin::<f32>::new(&sphere(1.0), params(dx)).memory_bytes();
+    let fixed_bytes = Skin::<Fixed16>::new(&sphere(1.0), params(dx)).memory_bytes();
+    let vdb_bytes = source.mem_usage();
+    report.insert(
+        "memory".into(),
+        json!({"ours_f32_bytes": f32_bytes, "ours_fixed16_bytes": fixed_bytes, "openvdb_bytes": vdb_bytes,
+               "ratio_f32": f32_bytes as f64 / vdb_bytes as f64, "ratio_fixed16": fixed_bytes as f64 / vdb_bytes as f64}),
+    );
+    lines.push(format!(
+        "memory, sphere r = 100 voxels   ours f32 {:.1} MB, fixed16 {:.1} MB   OpenVDB {:.1} MB   ratios {:.2}×, {:.2}×",
+        f32_bytes as f64 / 1e6, fixed_bytes as f64 / 1e6, vdb_bytes as f64 / 1e6,
+        f32_bytes as f64 / vdb_bytes as f64, fixed_bytes as f64 / vdb_bytes as f64
+    ));
+
+    // Scaling with the sphere's size: cost ∝ area gives exponent 2 in n.
+    let mut sizes = vec![128.0f64, 256.0, 512.0];
+    if args.full {
+        sizes.push(1024.0);
+    }
+    let mut points = Vec::new();
+    for &n in &sizes {
+        let (seconds, nodes) = our_step((n / 4.0) as f32, 3);
+        points.push((n, seconds, nodes));
+    }
+    let exponent = fit_exponent(&points.iter().map(|p| (p.0, p.1)).collect::<Vec<_>>());
+    let serial = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()?
+        .install(|| our_step(64.0, 3).0);
+    let parallel = our_step(64.0, 3).0;
+    report.insert(
+        "scaling".into(),
+        json!({"n": sizes, "ms": points.iter().map(|p| p.1 * 1e3).collect::<Vec<_>>(),
+               "band_nodes": points.iter().map(|p| p.2).collect::<Vec<_>>(), "exponent": exponent,
+               "threads": threads, "speedup_over_1_thread": serial / parallel}),
+    );
+    for (n, seconds, nodes) in &points {
+        lines.push(format!(
+            "scaling, n = {n:<5} (r = n/4)      {:.1} ms/step, {:.2} M band nodes",
+            seconds * 1e3,
+            nodes / 1e6
+        ));
+    }
+    lines.push(format!(
+        "scaling exponent {exponent:.2} (area: 2)   {threads} threads vs 1: {:.2}×",
+        serial / parallel
+    ));
+
+    if args.json {
+        println!("{}", serde_json::Value::Object(report));
+    } else {
+        for line in lines {
+            println!("{line}");
+        }
+    }
+    Ok(())
+}
+
+/// Least-squares slope of log(time) against log(n).
+fn fit_exponent(points: &[(f64, f64)]) -> f64 {
+    let logs: Vec<(f64, f64)> = points.iter().map(|&(n, t)| (n.ln(), t.ln())).collect();
+    let k = logs.len() as f64;
+    let (sx, sy) = logs
+        .iter()
+        .fold((0.0, 0.0), |(a, b), &(x, y)| (a + x, b + y));
+    let (mx, my) = (sx / k, sy / k);
+    let (num, den) = logs.iter().fold((0.0, 0.0), |(a, b), &(x, y)| {
+        (a + (x - mx) * (y - my), b + (x - mx) * (x - mx))
+    });
+    num / den
+}

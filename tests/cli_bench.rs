@@ -1,0 +1,38 @@
+//! `activeskin bench --json` runs ours and OpenVDB side by side and reports every figure.
+
+use std::process::Command;
+
+#[test]
+fn bench_reports_every_ratio() {
+    let out = Command::new(env!("CARGO_BIN_EXE_activeskin"))
+        .args(["bench", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for (section, key) in [
+        ("step", "ratio"),
+        ("meshing", "speedup"),
+        ("memory", "ratio_fixed16"),
+        ("scaling", "exponent"),
+        ("scaling", "speedup_over_1_thread"),
+    ] {
+        let v = report[section][key].as_f64();
+        assert!(
+            v.is_some_and(|v| v.is_finite() && v > 0.0),
+            "{section}.{key}: {report}"
+        );
+    }
+    // fixed16 halves the values: it must stay under f32.
+    assert!(
+        report["memory"]["ours_fixed16_bytes"].as_f64()
+            < report["memory"]["ours_f32_bytes"].as_f64()
+    );
+    // Cost grows with the area (exponent 2), far from the volume's 3.
+    let exponent = report["scaling"]["exponent"].as_f64().unwrap();
+    assert!((1.6..2.6).contains(&exponent), "{exponent}");
+}
