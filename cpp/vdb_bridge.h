@@ -82,6 +82,7 @@ void write_vector_grid_file(rust::Str path);
 MeshBuffers volume_to_mesh(const FloatGrid &grid, double isovalue, double adaptivity);
 LevelSetMeasures measure_level_set(const FloatGrid &grid);
 MorphTiming morph_timing(const FloatGrid &source, const FloatGrid &target, double duration);
+MorphTiming morph_advance(FloatGrid &grid, const FloatGrid &target, double duration);
 uint64_t mem_usage(const FloatGrid &grid);
 std::unique_ptr<FloatGrid> mesh_to_level_set(rust::Slice<const float> points,
                                              rust::Slice<const uint32_t> triangles,

@@ -81,17 +81,27 @@ std::unique_ptr<FloatGrid> mesh_to_level_set(rust::Slice<const float> points,
   return wrap(grid);
 }
 
-MorphTiming morph_timing(const FloatGrid &source, const FloatGrid &target, double duration) {
-  auto morphed = source.impl().grid->deepCopy();
-  openvdb::tools::LevelSetMorphing<openvdb::FloatGrid> morph(*morphed, *target.impl().grid);
+namespace {
+MorphTiming morph(openvdb::FloatGrid &grid, const openvdb::FloatGrid &target, double duration) {
   const auto start = std::chrono::steady_clock::now();
+  openvdb::tools::LevelSetMorphing<openvdb::FloatGrid> morph(grid, target);
   const size_t iterations = morph.advect(0.0f, static_cast<float>(duration));
   const std::chrono::duration<double> elapsed = std::chrono::steady_clock::now() - start;
   MorphTiming t;
   t.seconds = elapsed.count();
   t.iterations = iterations;
-  t.active_voxels = morphed->activeVoxelCount();
+  t.active_voxels = grid.activeVoxelCount();
   return t;
+}
+}  // namespace
+
+MorphTiming morph_timing(const FloatGrid &source, const FloatGrid &target, double duration) {
+  auto copy = source.impl().grid->deepCopy();
+  return morph(*copy, *target.impl().grid, duration);
+}
+
+MorphTiming morph_advance(FloatGrid &grid, const FloatGrid &target, double duration) {
+  return morph(*grid.impl().grid, *target.impl().grid, duration);
 }
 
 uint64_t mem_usage(const FloatGrid &grid) { return grid.impl().grid->memUsage(); }

@@ -288,6 +288,13 @@ impl Grid {
             .map_err(|e| VdbError::Grid(one_line(e.what())))
     }
 
+    /// Advances this grid in place by `duration` of OpenVDB's `LevelSetMorphing` toward
+    /// `target`, timed in C++.
+    pub fn morph_advance(&mut self, target: &Grid, duration: f64) -> Result<MorphTiming, VdbError> {
+        ffi::bridge::morph_advance(self.inner.pin_mut(), &target.inner, duration)
+            .map_err(|e| VdbError::Grid(one_line(e.what())))
+    }
+
     /// OpenVDB's `memUsage()`: bytes held by the grid.
     pub fn mem_usage(&self) -> u64 {
         ffi::bridge::mem_usage(&self.inner)

@@ -32,6 +32,12 @@ fn bench_reports_every_ratio() {
         report["memory"]["ours_fixed16_bytes"].as_f64()
             < report["memory"]["ours_f32_bytes"].as_f64()
     );
+    // Our skin reaches the target (0.1 voxel mean, 0.5 max) in both races.
+    let races = report["morph_to_accuracy"].as_array().unwrap();
+    assert_eq!(races.len(), 2);
+    for race in races {
+        assert!(race["ours_s"].as_f64().is_some_and(|s| s > 0.0), "{race}");
+    }
     // Cost grows with the area (exponent 2), far from the volume's 3.
     let exponent = report["scaling"]["exponent"].as_f64().unwrap();
     assert!((1.6..2.6).contains(&exponent), "{exponent}");

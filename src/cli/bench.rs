@@ -6,7 +6,8 @@ use std::time::Instant;
 use activeskin::grid::Fixed16;
 use activeskin::polygonize::mesh_vdb;
 use activeskin::skin::{Skin, SkinParams, SpeedParams};
-use activeskin::target::Sphere;
+use activeskin::target::{sample, Blobs, Sphere, Target, Torus, Union};
+use activeskin::validate;
 use activeskin::vdb::Grid;
 use glam::Vec3;
 use serde_json::json;
@@ -19,6 +20,9 @@ pub struct BenchArgs {
     /// Also run the largest scaling case (n = 1024: a sphere of radius 256 voxels).
     #[arg(long)]
     full: bool,
+    /// Seconds each side of the morph-to-accuracy race may run before it is called.
+    #[arg(long, default_value_t = 30.0)]
+    race_cap: f64,
 }
 
 fn sphere(radius: f32) -> Sphere {
@@ -155,6 +159,41 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         serial / parallel
     ));
 
+    // Morph to accuracy, β = 0 on both sides.
+    let torus = Torus {
+        center: Vec3::ZERO,
+        major: 0.6,
+        minor: 0.25,
+    };
+    let cases: [(&str, &dyn Target, &dyn Target); 2] = [
+        ("sphere → torus", &sphere(0.7), &torus),
+        (
+            "Fig. 7 blobs → spheres",
+            &Blobs::fig7_points(),
+            &Union::fig7_spheres(),
+        ),
+    ];
+    let mut races = Vec::new();
+    for (name, start, target) in cases {
+        let r = race(start, target, 1.0 / 32.0, args.race_cap)?;
+        let shown =
+            |t: Option<f64>| t.map_or(format!("> {:.0} s", args.race_cap), |t| format!("{t:.2} s"));
+        let ratio = match (r.ours, r.openvdb) {
+            (Some(a), Some(b)) => format!("{:.1}×", b / a),
+            (Some(_), None) => format!("> {:.1}×", args.race_cap / r.ours.unwrap_or(1.0)),
+            _ => "—".into(),
+        };
+        lines.push(format!(
+            "morph to 0.1 / 0.5 voxel, {name:<24} ours {}   OpenVDB {}   speed-up {ratio}",
+            shown(r.ours),
+            shown(r.openvdb)
+        ));
+        races.push(
+            json!({"case": name, "ours_s": r.ours, "openvdb_s": r.openvdb, "cap_s": args.race_cap}),
+        );
+    }
+    report.insert("morph_to_accuracy".into(), json!(races));
+
     if args.json {
         println!("{}", serde_json::Value::Object(report));
     } else {
@@ -163,6 +202,63 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// Mean and max distance of mesh vertices to `target`, voxels.
+fn accuracy(positions: &[Vec3], target: &dyn Target, dx: f32) -> (f64, f64) {
+    let d: Vec<f64> = positions
+        .iter()
+        .map(|&p| f64::from(target.distance(p).abs() / dx))
+        .collect();
+    let mean = d.iter().sum::<f64>() / d.len().max(1) as f64;
+    (mean, d.iter().copied().fold(0.0, f64::max))
+}
+
+/// Wall time (accuracy checks excluded) until a skin started on `start` is within 0.1
+/// voxel of `target` on average and 0.5 voxel at most; `None` past `cap` seconds.
+struct Race {
+    ours: Option<f64>,
+    openvdb: Option<f64>,
+}
+
+fn race(start: &dyn Target, target: &dyn Target, dx: f32, cap: f64) -> anyhow::Result<Race> {
+    let reached = |(mean, max): (f64, f64)| mean <= 0.1 && max <= 0.5;
+    let mut skin: Skin<f32> = Skin::new(
+        start,
+        SkinParams {
+            dx,
+            speed: SpeedParams {
+                alpha: 8.0,
+                beta: 0.0,
+                ..SpeedParams::default()
+            },
+            ..SkinParams::default()
+        },
+    );
+    let mut ours = None;
+    let mut elapsed = 0.0;
+    while elapsed < cap {
+        let clock = Instant::now();
+        skin.advance(target, 1.0 / 24.0);
+        elapsed += clock.elapsed().as_secs_f64();
+        if reached(accuracy(&skin.mesh().positions, target, dx)) {
+            ours = Some(elapsed);
+            break;
+        }
+    }
+    let mut grid = Grid::from_data(&sample::level_set(start, dx, 3.0))?;
+    let goal = Grid::from_data(&sample::level_set(target, dx, 3.0))?;
+    let mut openvdb = None;
+    let mut elapsed = 0.0;
+    while elapsed < cap {
+        elapsed += grid.morph_advance(&goal, f64::from(4.0 * dx))?.seconds;
+        let mesh = validate::openvdb_mesh(&grid)?;
+        if reached(accuracy(&mesh.positions, target, dx)) {
+            openvdb = Some(elapsed);
+            break;
+        }
+    }
+    Ok(Race { ours, openvdb })
 }
 
 /// Least-squares slope of log(time) against log(n).

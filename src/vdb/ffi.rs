@@ -156,6 +156,13 @@ pub(crate) mod bridge {
             target: &FloatGrid,
             duration: f64,
         ) -> Result<MorphTiming>;
+        /// Advances `grid` in place by `duration` of `tools::LevelSetMorphing` toward
+        /// `target` (default schemes), timed.
+        fn morph_advance(
+            grid: Pin<&mut FloatGrid>,
+            target: &FloatGrid,
+            duration: f64,
+        ) -> Result<MorphTiming>;
         /// `Grid::memUsage()`, bytes.
         fn mem_usage(grid: &FloatGrid) -> u64;
         /// `tools::checkLevelSet`: empty when the grid is a valid narrow-band level set.
