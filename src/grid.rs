@@ -257,6 +257,11 @@ impl<P: Potential> SparseGrid<P> {
                 i += 1;
             }
         }
+        // The arena grows by doubling; give back what a shrinking skin no longer needs.
+        let len = self.blocks.len();
+        if self.blocks.capacity() > len + len / 4 + 64 {
+            self.blocks.shrink_to(len + len / 8);
+        }
     }
 
     pub fn active_node_count(&self) -> usize {
