@@ -250,7 +250,7 @@ fn race(start: &dyn Target, target: &dyn Target, dx: f32, cap: f64) -> anyhow::R
         SkinParams {
             dx,
             speed: SpeedParams {
-                alpha: 8.0,
+                alpha: 12.0,
                 beta: 0.0,
                 ..SpeedParams::default()
             },
