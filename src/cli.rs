@@ -6,6 +6,7 @@ mod info;
 mod mesh;
 mod morph;
 mod outputs;
+mod particles;
 mod render;
 mod skin;
 mod validate;
@@ -36,6 +37,8 @@ enum Command {
     },
     /// Dress a VDB target sequence (level sets, or fog volumes with --iso) with a skin.
     Skin(skin::SkinArgs),
+    /// Dress a particle sequence (PLY, XYZ, CSV) with a skin.
+    Particles(particles::ParticlesArgs),
     /// Morph a skin from one shape to another, writing a VDB (and mesh) sequence.
     Morph(morph::MorphArgs),
     /// Render a level set (or a fog volume at --iso) to a multi-layer EXR or a PNG.
@@ -58,6 +61,7 @@ pub fn run() -> ExitCode {
         Command::Info { files } => info::run(&files),
         Command::Skin(args) => skin::run(&args),
         Command::Morph(args) => morph::run(&args),
+        Command::Particles(args) => particles::run(&args),
         Command::Mesh(args) => mesh::run(&args),
         Command::Demo(args) => demo::run(&args),
         Command::Render(args) => render::run(&args),

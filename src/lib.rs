@@ -20,6 +20,7 @@
 pub mod grid;
 pub mod io;
 pub mod mesh;
+pub mod particles;
 pub mod polygonize;
 pub mod render;
 pub mod sequence;
@@ -42,4 +43,6 @@ pub enum Error {
     Pattern(#[from] sequence::PatternError),
     #[error(transparent)]
     Render(#[from] render::RenderError),
+    #[error(transparent)]
+    Particles(#[from] particles::ParticleError),
 }

@@ -1,12 +1,14 @@
 //! What the skin is attracted to (paper §3.4): VDB level sets and fog volumes, analytic
 //! shapes, skeleton blobs, and unions of them.
 
+mod particles;
 pub mod sample;
 mod shapes;
 mod vdb;
 
 use glam::Vec3;
 
+pub use particles::{iso_for_radius, kernel, Density};
 pub use shapes::{Blobs, BoxShape, Skeleton, Sphere, Torus, Union};
 pub use vdb::{FogTarget, LevelSetTarget};
 

@@ -1,0 +1,73 @@
+//! `activeskin particles --particles PATTERN --radius R [...]`: a skin dressed on a
+//! particle sequence (paper §6.1), through the same frame loop and outputs as `skin`.
+
+use activeskin::particles;
+use activeskin::sequence::{parse_range, FramePattern};
+use activeskin::skin::AnySkin;
+use activeskin::target::{iso_for_radius, Density, Target};
+use anyhow::{bail, Context};
+
+use super::outputs::{OutputArgs, PhysicsArgs};
+use super::skin::run_frames;
+
+#[derive(clap::Args)]
+pub struct ParticlesArgs {
+    /// Particle frames: PLY (ASCII or binary; x y z, optional radius), XYZ or CSV text.
+    #[arg(long)]
+    particles: String,
+    /// Particle radius: the surface of a lone particle sits this far from it.
+    #[arg(long)]
+    radius: f32,
+    /// Density of the surface (default: the one that puts a lone particle's surface at
+    /// --radius, with a kernel support of two radii).
+    #[arg(long)]
+    iso: Option<f32>,
+    /// Inclusive frame range (default: every frame the pattern finds).
+    #[arg(long)]
+    frames: Option<String>,
+    #[command(flatten)]
+    physics: PhysicsArgs,
+    #[command(flatten)]
+    outputs: OutputArgs,
+}
+
+pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
+    if !(args.radius.is_finite() && args.radius > 0.0) {
+        bail!("--radius must be a positive number, got {}", args.radius);
+    }
+    let h = 2.0 * args.radius;
+    let iso = args.iso.unwrap_or_else(|| iso_for_radius(args.radius, h));
+    if !(iso.is_finite() && iso > 0.0) {
+        bail!("--iso must be a positive number, got {iso}");
+    }
+    let pattern = FramePattern::parse(&args.particles)?;
+    let existing = pattern.existing_frames()?;
+    let range = match &args.frames {
+        Some(spec) => parse_range(spec).with_context(|| {
+            format!("--frames '{spec}': expected FIRST-LAST with FIRST <= LAST")
+        })?,
+        None => match (existing.first(), existing.last()) {
+            (Some(&a), Some(&b)) => (a, b),
+            _ => bail!("no file matches --particles '{}'", args.particles),
+        },
+    };
+    let target_at = |frame: i64| -> anyhow::Result<Box<dyn Target>> {
+        let path = pattern.path(frame);
+        if existing.binary_search(&frame).is_err() {
+            bail!(
+                "{}: frame {frame} of the particles is missing",
+                path.display()
+            );
+        }
+        let frame = particles::read(&path)?;
+        if frame.positions.is_empty() {
+            bail!("{}: no particles", path.display());
+        }
+        Ok(Box::new(Density::new(frame.positions, h, iso)))
+    };
+    let first = target_at(range.0)?;
+    let params = args.physics.params(0.5 * args.radius)?;
+    let skin = AnySkin::new(&*first, params);
+    drop(first);
+    run_frames(range, skin, args.physics.fps, &args.outputs, target_at)
+}

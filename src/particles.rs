@@ -1,0 +1,328 @@
+//! Particle frames (paper §6.1): positions and optional radii read from PLY (ASCII or
+//! binary little/big endian) or plain text (XYZ or CSV: `x y z [radius]` per line).
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+
+/// A particle frame that cannot be read.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {message}", path.display())]
+pub struct ParticleError {
+    pub path: PathBuf,
+    pub message: String,
+}
+
+/// One frame of particles.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Particles {
+    pub positions: Vec<Vec3>,
+    /// Per-particle radius, when the file has one.
+    pub radii: Option<Vec<f32>>,
+}
+
+/// Reads a frame by extension: `.ply`, or `.xyz` / `.csv` / `.txt`.
+pub fn read(path: &Path) -> Result<Particles, ParticleError> {
+    let error = |message: String| ParticleError {
+        path: path.to_path_buf(),
+        message,
+    };
+    let bytes = std::fs::read(path).map_err(|e| error(e.to_string()))?;
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let particles = match ext.as_deref() {
+        Some("ply") => read_ply(&bytes),
+        Some("xyz" | "csv" | "txt") => read_text(&bytes),
+        _ => Err("particle files must end in .ply, .xyz, .csv or .txt".into()),
+    }
+    .map_err(error)?;
+    if let Some(i) = particles.positions.iter().position(|p| !p.is_finite()) {
+        return Err(error(format!(
+            "particle {i} has a NaN or infinite coordinate"
+        )));
+    }
+    if let Some(radii) = &particles.radii {
+        if let Some(i) = radii.iter().position(|r| !(r.is_finite() && *r > 0.0)) {
+            return Err(error(format!(
+                "particle {i} has a radius that is not a positive number"
+            )));
+        }
+    }
+    Ok(particles)
+}
+
+fn read_text(bytes: &[u8]) -> Result<Particles, String> {
+    let text = std::str::from_utf8(bytes).map_err(|_| "not a text file".to_string())?;
+    let mut positions = Vec::new();
+    let mut radii = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line
+            .split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|f| !f.is_empty())
+            .collect();
+        let numbers: Result<Vec<f32>, _> = fields.iter().map(|f| f.parse::<f32>()).collect();
+        let numbers = match numbers {
+            // A CSV header line.
+            Err(_) if positions.is_empty() && n == 0 => continue,
+            Err(_) => return Err(format!("line {}: not numbers: '{line}'", n + 1)),
+            Ok(v) => v,
+        };
+        match numbers.len() {
+            3 => positions.push(Vec3::from_slice(&numbers)),
+            4 => {
+                positions.push(Vec3::from_slice(&numbers[..3]));
+                radii.push(numbers[3]);
+            }
+            k => {
+                return Err(format!(
+                    "line {}: {k} numbers, expected x y z [radius]",
+                    n + 1
+                ))
+            }
+        }
+    }
+    if !radii.is_empty() && radii.len() != positions.len() {
+        return Err("some lines have a radius and others not".into());
+    }
+    Ok(Particles {
+        positions,
+        radii: (!radii.is_empty()).then_some(radii),
+    })
+}
+
+/// A PLY element: name, count, properties (name, type).
+type Element = (String, usize, Vec<(String, String)>);
+
+#[derive(Clone, Copy, PartialEq)]
+enum Format {
+    Ascii,
+    Little,
+    Big,
+}
+
+/// The scalar types PLY names, and their sizes.
+fn type_size(name: &str) -> Option<usize> {
+    Some(match name {
+        "char" | "uchar" | "int8" | "uint8" => 1,
+        "short" | "ushort" | "int16" | "uint16" => 2,
+        "int" | "uint" | "float" | "int32" | "uint32" | "float32" => 4,
+        "double" | "float64" => 8,
+        _ => return None,
+    })
+}
+
+fn read_ply(bytes: &[u8]) -> Result<Particles, String> {
+    const END: &[u8] = b"end_header";
+    let end = bytes
+        .windows(END.len())
+        .position(|w| w == END)
+        .ok_or("not a PLY file: no end_header")?;
+    let header = std::str::from_utf8(&bytes[..end]).map_err(|_| "PLY header is not text")?;
+    let mut body = end + END.len();
+    // The header ends with "\n" (or "\r\n").
+    while body < bytes.len() && bytes[body] != b'\n' {
+        body += 1;
+    }
+    body += 1;
+    let mut lines = header.lines();
+    if lines.next().map(str::trim) != Some("ply") {
+        return Err("not a PLY file: it does not start with 'ply'".into());
+    }
+    let mut format = None;
+    // Elements in order; a list property is refused in the vertex element.
+    let mut elements: Vec<Element> = Vec::new();
+    for line in lines {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        match words.as_slice() {
+            ["format", f, _] => {
+                format = Some(match *f {
+                    "ascii" => Format::Ascii,
+                    "binary_little_endian" => Format::Little,
+                    "binary_big_endian" => Format::Big,
+                    other => return Err(format!("unknown PLY format '{other}'")),
+                })
+            }
+            ["element", name, count] => {
+                let count = count
+                    .parse()
+                    .map_err(|_| format!("element {name}: count '{count}' is not a number"))?;
+                elements.push((name.to_string(), count, Vec::new()));
+            }
+            ["property", "list", ..] => {
+                let element = elements.last_mut().ok_or("property before any element")?;
+                element.2.push(("list".into(), "list".into()));
+            }
+            ["property", ty, name] => {
+                let element = elements.last_mut().ok_or("property before any element")?;
+                if type_size(ty).is_none() {
+                    return Err(format!("property {name}: unknown type '{ty}'"));
+                }
+                element.2.push((name.to_string(), ty.to_string()));
+            }
+            ["comment", ..] | ["obj_info", ..] | [] => {}
+            _ => return Err(format!("unreadable PLY header line '{line}'")),
+        }
+    }
+    let format = format.ok_or("PLY header has no format line")?;
+    let (index, (_, count, properties)) = elements
+        .iter()
+        .enumerate()
+        .find(|(_, e)| e.0 == "vertex")
+        .ok_or("PLY file has no vertex element")?;
+    if elements[..index].iter().any(|e| e.1 > 0) {
+        return Err("PLY elements before the vertices are not supported".into());
+    }
+    if properties.iter().any(|p| p.1 == "list") {
+        return Err("vertex element has a list property".into());
+    }
+    let column = |names: &[&str]| {
+        properties
+            .iter()
+            .position(|p| names.contains(&p.0.as_str()))
+    };
+    let (x, y, z) = match (column(&["x"]), column(&["y"]), column(&["z"])) {
+        (Some(x), Some(y), Some(z)) => (x, y, z),
+        _ => return Err("vertex element lacks x, y or z".into()),
+    };
+    let radius = column(&["radius", "pscale", "r"]);
+    let mut positions = Vec::with_capacity(*count);
+    let mut radii = radius.map(|_| Vec::with_capacity(*count));
+    let mut push = |row: &[f64]| {
+        positions.push(Vec3::new(row[x] as f32, row[y] as f32, row[z] as f32));
+        if let (Some(r), Some(radii)) = (radius, radii.as_mut()) {
+            radii.push(row[r] as f32);
+        }
+    };
+    let data = &bytes[body.min(bytes.len())..];
+    match format {
+        Format::Ascii => {
+            let text = std::str::from_utf8(data).map_err(|_| "PLY body is not text")?;
+            let mut rows = text.lines().filter(|l| !l.trim().is_empty());
+            for i in 0..*count {
+                let line = rows
+                    .next()
+                    .ok_or(format!("{count} vertices announced, {i} found"))?;
+                let row: Result<Vec<f64>, _> = line.split_whitespace().map(str::parse).collect();
+                let row = row.map_err(|_| format!("vertex {i}: not numbers"))?;
+                if row.len() < properties.len() {
+                    return Err(format!(
+                        "vertex {i}: {} values, {} expected",
+                        row.len(),
+                        properties.len()
+                    ));
+                }
+                push(&row);
+            }
+        }
+        Format::Little | Format::Big => {
+            let sizes: Vec<usize> = properties
+                .iter()
+                .map(|p| type_size(&p.1).unwrap_or(0))
+                .collect();
+            let stride: usize = sizes.iter().sum();
+            if data.len() < stride * count {
+                return Err(format!(
+                    "{count} vertices announced, {} bytes hold {}",
+                    data.len(),
+                    data.len() / stride.max(1)
+                ));
+            }
+            let mut row = vec![0.0f64; properties.len()];
+            for v in 0..*count {
+                let mut at = v * stride;
+                for (k, (_, ty)) in properties.iter().enumerate() {
+                    let raw = &data[at..at + sizes[k]];
+                    row[k] = scalar(ty, raw, format == Format::Little);
+                    at += sizes[k];
+                }
+                push(&row);
+            }
+        }
+    }
+    Ok(Particles { positions, radii })
+}
+
+/// One binary PLY scalar as f64.
+fn scalar(ty: &str, raw: &[u8], little: bool) -> f64 {
+    macro_rules! num {
+        ($t:ty) => {{
+            let bytes = raw.try_into().expect("sized by type_size");
+            f64::from(if little {
+                <$t>::from_le_bytes(bytes)
+            } else {
+                <$t>::from_be_bytes(bytes)
+            })
+        }};
+    }
+    match ty {
+        "char" | "int8" => num!(i8),
+        "uchar" | "uint8" => num!(u8),
+        "short" | "int16" => num!(i16),
+        "ushort" | "uint16" => num!(u16),
+        "int" | "int32" => num!(i32),
+        "uint" | "uint32" => num!(u32),
+        "float" | "float32" => num!(f32),
+        _ => num!(f64),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ascii_and_binary_ply_and_text_agree() {
+        let points = [Vec3::new(0.5, -1.0, 2.0), Vec3::new(3.0, 4.0, -0.25)];
+        let ascii = "ply\nformat ascii 1.0\ncomment test\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nproperty float radius\nend_header\n0.5 -1 2 0.1\n3 4 -0.25 0.2\n";
+        let p = read_ply(ascii.as_bytes()).unwrap();
+        assert_eq!(p.positions, points);
+        assert_eq!(p.radii, Some(vec![0.1, 0.2]));
+
+        let mut binary = b"ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty double x\nproperty double y\nproperty double z\nproperty uchar id\nend_header\n".to_vec();
+        for q in points {
+            for c in q.to_array() {
+                binary.extend_from_slice(&f64::from(c).to_le_bytes());
+            }
+            binary.push(7);
+        }
+        let p = read_ply(&binary).unwrap();
+        assert_eq!(p.positions, points);
+        assert_eq!(p.radii, None);
+
+        let mut big = b"ply\nformat binary_big_endian 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n".to_vec();
+        for q in points {
+            for c in q.to_array() {
+                big.extend_from_slice(&c.to_be_bytes());
+            }
+        }
+        assert_eq!(read_ply(&big).unwrap().positions, points);
+
+        let csv = "x,y,z\n0.5,-1,2\n3,4,-0.25\n";
+        assert_eq!(read_text(csv.as_bytes()).unwrap().positions, points);
+    }
+
+    #[test]
+    fn broken_files_are_named_errors() {
+        let truncated = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n\0\0\0\0";
+        assert!(read_ply(truncated)
+            .unwrap_err()
+            .contains("3 vertices announced"));
+        let bad_type =
+            "ply\nformat ascii 1.0\nelement vertex 1\nproperty quaternion x\nend_header\n";
+        assert!(read_ply(bad_type.as_bytes())
+            .unwrap_err()
+            .contains("unknown type"));
+        let few = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n";
+        assert!(read_ply(few.as_bytes())
+            .unwrap_err()
+            .contains("2 vertices announced, 1 found"));
+        assert!(read_ply(b"hello").unwrap_err().contains("not a PLY file"));
+        assert!(read_text(b"1 2\n").unwrap_err().contains("expected x y z"));
+    }
+}
