@@ -63,6 +63,7 @@ fn static_cloud_skin_sits_on_the_iso_density_surface() {
     }
     let pattern = dir.path().join("cloud.####.ply");
     let mesh = dir.path().join("out/skin.####.obj");
+    let fog = dir.path().join("out/density.####.vdb");
     let radius = RADIUS.to_string();
     let result = activeskin(&[
         "particles",
@@ -76,12 +77,27 @@ fn static_cloud_skin_sits_on_the_iso_density_surface() {
         "0",
         "--mesh",
         mesh.to_str().unwrap(),
+        "--density-out",
+        fog.to_str().unwrap(),
         "-q",
     ]);
     assert!(
         result.status.success(),
         "{}",
         String::from_utf8_lossy(&result.stderr)
+    );
+    let h = 2.0 * RADIUS;
+    let iso = iso_for_radius(RADIUS, h);
+    let fog = activeskin::vdb::Grid::read(&dir.path().join("out/density.0003.vdb"), None)
+        .unwrap()
+        .to_data()
+        .unwrap();
+    assert_eq!(fog.name, "density");
+    assert_eq!(fog.class, activeskin::vdb::GridClass::FogVolume);
+    let max = fog.leaf_values.iter().copied().fold(0.0f32, f32::max);
+    assert!(
+        max > iso && fog.background == 0.0,
+        "max density {max}, iso {iso}"
     );
     let obj = std::fs::read_to_string(dir.path().join("out/skin.0006.obj")).unwrap();
     let vertices: Vec<Vec3> = obj
@@ -93,8 +109,7 @@ fn static_cloud_skin_sits_on_the_iso_density_surface() {
         })
         .collect();
     assert!(!vertices.is_empty());
-    let h = 2.0 * RADIUS;
-    let density = Density::new(points, h, iso_for_radius(RADIUS, h));
+    let density = Density::new(points, h, iso);
     let dx = 0.5 * RADIUS;
     let worst = vertices
         .iter()

@@ -5,6 +5,7 @@ use activeskin::particles;
 use activeskin::sequence::{parse_range, FramePattern};
 use activeskin::skin::AnySkin;
 use activeskin::target::{iso_for_radius, Density, Target};
+use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
 use anyhow::{bail, Context};
 
 use super::outputs::{OutputArgs, PhysicsArgs};
@@ -22,6 +23,9 @@ pub struct ParticlesArgs {
     /// --radius, with a kernel support of two radii).
     #[arg(long)]
     iso: Option<f32>,
+    /// Also write each frame's density as a VDB fog volume (grid `density`), same patterns.
+    #[arg(long)]
+    density_out: Option<String>,
     /// Inclusive frame range (default: every frame the pattern finds).
     #[arg(long)]
     frames: Option<String>,
@@ -65,8 +69,35 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
         }
         Ok(Box::new(Density::new(frame.positions, h, iso)))
     };
-    let first = target_at(range.0)?;
     let params = args.physics.params(0.5 * args.radius)?;
+    if let Some(spec) = &args.density_out {
+        let out = FramePattern::parse(spec)?;
+        std::fs::create_dir_all(out.folder()).with_context(|| {
+            format!(
+                "{}: cannot create the output folder",
+                out.folder().display()
+            )
+        })?;
+        for frame in range.0..=range.1 {
+            let path = pattern.path(frame);
+            let cloud = particles::read(&path)?;
+            if cloud.positions.is_empty() {
+                bail!("{}: no particles", path.display());
+            }
+            let fog = Density::new(cloud.positions, h, iso).to_fog_volume(params.dx);
+            let meta = FileMetadata {
+                creator: format!("activeskin {}", env!("CARGO_PKG_VERSION")),
+                has_frame: true,
+                frame,
+            };
+            vdb::write_grids(
+                &out.path(frame),
+                &[(&Grid::from_data(&fog)?, WriteOptions::default())],
+                &meta,
+            )?;
+        }
+    }
+    let first = target_at(range.0)?;
     let skin = AnySkin::new(&*first, params);
     drop(first);
     run_frames(range, skin, args.physics.fps, &args.outputs, target_at)

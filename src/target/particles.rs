@@ -3,7 +3,10 @@
 //! neighbours found through a hashed grid of cells of side h.
 
 use glam::{IVec3, Vec3};
-use hashbrown::HashMap;
+use hashbrown::{HashMap, HashSet};
+use rayon::prelude::*;
+
+use crate::vdb::{GridClass, GridData, Transform, LEAF_VOXELS, MASK_WORDS};
 
 use super::{density_distance, Aabb, Target};
 
@@ -69,6 +72,68 @@ impl Density {
             }
         }
         g
+    }
+}
+
+impl Density {
+    /// The density sampled on voxels of `dx` as a VDB fog volume named `density`
+    /// (background 0, active where G > 0), for inspection next to the skin.
+    pub fn to_fog_volume(&self, dx: f32) -> GridData {
+        let leaf = 8.0 * dx;
+        let mut coords: HashSet<IVec3> = HashSet::new();
+        for &p in &self.positions {
+            let lo = ((p - Vec3::splat(self.h)) / leaf).floor().as_ivec3();
+            let hi = ((p + Vec3::splat(self.h)) / leaf).floor().as_ivec3();
+            for x in lo.x..=hi.x {
+                for y in lo.y..=hi.y {
+                    for z in lo.z..=hi.z {
+                        coords.insert(IVec3::new(x, y, z));
+                    }
+                }
+            }
+        }
+        let mut coords: Vec<IVec3> = coords.into_iter().collect();
+        coords.sort_unstable_by_key(|c| c.to_array());
+        let leaves: Vec<(IVec3, Vec<f32>, [u64; MASK_WORDS])> = coords
+            .par_iter()
+            .map(|&c| {
+                let origin = c * 8;
+                let mut mask = [0u64; MASK_WORDS];
+                let values: Vec<f32> = (0..LEAF_VOXELS)
+                    .map(|offset| {
+                        let l = IVec3::new(
+                            offset as i32 >> 6,
+                            (offset as i32 >> 3) & 7,
+                            offset as i32 & 7,
+                        );
+                        let g = self.density((origin + l).as_vec3() * dx);
+                        if g > 0.0 {
+                            mask[offset >> 6] |= 1 << (offset & 63);
+                        }
+                        g
+                    })
+                    .collect();
+                (origin, values, mask)
+            })
+            .filter(|(_, _, mask)| mask.iter().any(|&w| w != 0))
+            .collect();
+        let mut data = GridData {
+            name: "density".into(),
+            class: GridClass::FogVolume,
+            background: 0.0,
+            transform: Transform::uniform(f64::from(dx), [0.0; 3]),
+            uniform_linear: true,
+            leaf_origins: Vec::with_capacity(leaves.len()),
+            leaf_values: Vec::with_capacity(leaves.len() * LEAF_VOXELS),
+            leaf_masks: Vec::with_capacity(leaves.len()),
+            tiles: Vec::new(),
+        };
+        for (origin, values, mask) in leaves {
+            data.leaf_origins.push(origin.to_array());
+            data.leaf_values.extend_from_slice(&values);
+            data.leaf_masks.push(mask);
+        }
+        data
     }
 }
 
