@@ -168,10 +168,19 @@ pub fn compare(grid: &Grid) -> Result<Report, VdbError> {
 /// hashed grid of triangles with cells of `cell`: distances beyond two cells are reported
 /// as found among the triangles within two cells, or as infinite.
 pub fn hausdorff(a: &Mesh, b: &Mesh, cell: f32) -> f64 {
-    one_sided(a, b, cell).max(one_sided(b, a, cell))
+    let max = |d: Vec<f64>| d.into_iter().fold(0.0, f64::max);
+    max(distances(a, b, cell)).max(max(distances(b, a, cell)))
 }
 
-fn one_sided(from: &Mesh, to: &Mesh, cell: f32) -> f64 {
+/// Mean distance from the vertices of `from` to the surface of `to` (world units),
+/// searched as in [`hausdorff`].
+pub fn mean_distance(from: &Mesh, to: &Mesh, cell: f32) -> f64 {
+    let d = distances(from, to, cell);
+    d.iter().sum::<f64>() / d.len().max(1) as f64
+}
+
+/// Distance from each vertex of `from` to the triangles of `to`.
+fn distances(from: &Mesh, to: &Mesh, cell: f32) -> Vec<f64> {
     let key = |p: Vec3| (p / cell).floor().as_ivec3();
     let mut cells: HashMap<IVec3, Vec<u32>> = HashMap::new();
     for (i, t) in to.triangles.iter().enumerate() {
@@ -206,7 +215,7 @@ fn one_sided(from: &Mesh, to: &Mesh, cell: f32) -> f64 {
             }
             f64::from(best)
         })
-        .reduce(|| 0.0, f64::max)
+        .collect()
 }
 
 /// Distance from `p` to triangle `abc` (Ericson, Real-Time Collision Detection, 5.1.5).
