@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use crate::vdb::{GridClass, GridData, Transform, LEAF_VOXELS, MASK_WORDS};
 
-use super::{density_distance, Aabb, Target};
+use super::{Aabb, Target};
 
 /// The kernel, 1 at the particle and 0 from distance h on, smooth at both ends.
 #[inline]
@@ -61,17 +61,29 @@ impl Density {
 
     /// G at `p`.
     pub fn density(&self, p: Vec3) -> f32 {
+        self.density_and_gradient(p).0
+    }
+
+    /// G and ∇G at `p` in one pass over the neighbours:
+    /// ∇W = −6 (1 − q²)² (p − p_i) / h².
+    pub fn density_and_gradient(&self, p: Vec3) -> (f32, Vec3) {
         let cell = (p / self.h).floor().as_ivec3();
-        let mut g = 0.0;
+        let inv_h2 = 1.0 / (self.h * self.h);
+        let (mut g, mut grad) = (0.0, Vec3::ZERO);
         for n in 0..27 {
             let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
             if let Some(list) = self.cells.get(&(cell + d)) {
                 for &i in list {
-                    g += kernel(p.distance(self.positions[i as usize]) / self.h);
+                    let r = p - self.positions[i as usize];
+                    let s = 1.0 - r.length_squared() * inv_h2;
+                    if s > 0.0 {
+                        g += s * s * s;
+                        grad -= r * (6.0 * s * s * inv_h2);
+                    }
                 }
             }
         }
-        g
+        (g, grad)
     }
 }
 
@@ -141,10 +153,45 @@ impl Target for Density {
     /// First-order distance to the iso-density surface, (iso − G)/|∇G|, capped at h where
     /// the density fades.
     fn distance(&self, p: Vec3) -> f32 {
-        let d = density_distance(|q| self.density(q), self.iso, p, 0.05 * self.h);
-        d.clamp(-self.h, self.h)
+        let (g, grad) = self.density_and_gradient(p);
+        let value = self.iso - g;
+        // Where the density fades its gradient does too: cap instead of dividing by ~0.
+        let norm = grad.length().max(value.abs() / self.h).max(1e-12);
+        (value / norm).clamp(-self.h, self.h)
     }
     fn bounds(&self) -> Aabb {
         self.bounds
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gradient_matches_finite_differences_and_lone_particle_sits_at_its_radius() {
+        let points = vec![
+            Vec3::ZERO,
+            Vec3::new(0.07, 0.02, -0.03),
+            Vec3::new(-0.05, 0.04, 0.01),
+        ];
+        let h = 0.1;
+        let density = Density::new(points, h, iso_for_radius(0.05, h));
+        let p = Vec3::new(0.02, 0.03, 0.01);
+        let (_, grad) = density.density_and_gradient(p);
+        let e = 1e-4;
+        let fd = Vec3::new(
+            density.density(p + Vec3::X * e) - density.density(p - Vec3::X * e),
+            density.density(p + Vec3::Y * e) - density.density(p - Vec3::Y * e),
+            density.density(p + Vec3::Z * e) - density.density(p - Vec3::Z * e),
+        ) / (2.0 * e);
+        assert!(
+            (grad - fd).length() < 1e-2 * grad.length(),
+            "{grad} vs {fd}"
+        );
+
+        let lone = Density::new(vec![Vec3::ZERO], h, iso_for_radius(0.05, h));
+        assert!(lone.distance(Vec3::new(0.05, 0.0, 0.0)).abs() < 1e-6);
+        assert!(lone.distance(Vec3::ZERO) < 0.0 && lone.distance(Vec3::X * 0.07) > 0.0);
     }
 }
