@@ -7,6 +7,8 @@ use activeskin::polygonize::mesh_vdb;
 use activeskin::vdb::{Grid, GridClass};
 use anyhow::bail;
 
+use super::skin::check_usable;
+
 #[derive(clap::Args)]
 pub struct MeshArgs {
     /// A VDB file.
@@ -24,13 +26,7 @@ pub struct MeshArgs {
 pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
     let path = &args.input;
     let data = Grid::read(path, args.grid.as_deref())?.to_data()?;
-    if !data.uniform_linear {
-        bail!(
-            "{}: grid '{}' has a non-uniform or non-linear transform",
-            path.display(),
-            data.name
-        );
-    }
+    check_usable(path, &data)?;
     // Only signs and linear interpolation matter to the polygonizer: scale into [-1, 1].
     let (iso, sign) = match (data.class, args.iso) {
         (_, Some(iso)) if iso.is_finite() => (iso, -1.0f32),
@@ -42,14 +38,6 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
             data.name
         ),
     };
-    let finite = |v: &f32| v.is_finite();
-    if !(data.leaf_values.iter().all(finite) && data.tiles.iter().all(|t| t.value.is_finite())) {
-        bail!(
-            "{}: grid '{}' holds NaN or infinite values",
-            path.display(),
-            data.name
-        );
-    }
     let range = data
         .leaf_values
         .iter()

@@ -3,14 +3,13 @@
 
 use std::path::Path;
 
-use activeskin::sequence::parse_range;
 use activeskin::skin::AnySkin;
 use activeskin::target::{Blobs, Sphere, Target, Torus, Union};
 use anyhow::{bail, Context};
 use glam::Vec3;
 
 use super::outputs::{OutputArgs, PhysicsArgs};
-use super::skin::{read_target, run_frames};
+use super::skin::{parse_frames, read_target, run_frames};
 
 #[derive(clap::Args)]
 pub struct MorphArgs {
@@ -69,12 +68,7 @@ fn shape(spec: &str) -> anyhow::Result<(Box<dyn Target>, Option<f32>)> {
 }
 
 pub fn run(args: &MorphArgs) -> anyhow::Result<()> {
-    let range = parse_range(&args.frames).with_context(|| {
-        format!(
-            "--frames '{}': expected FIRST-LAST with FIRST <= LAST",
-            args.frames
-        )
-    })?;
+    let range = parse_frames(&args.frames)?;
     let (from, from_dx) = shape(&args.from)?;
     let (to, to_dx) = shape(&args.to)?;
     let params = args

@@ -2,14 +2,14 @@
 //! particle sequence (paper §6.1), through the same frame loop and outputs as `skin`.
 
 use activeskin::particles;
-use activeskin::sequence::{parse_range, FramePattern};
+use activeskin::sequence::FramePattern;
 use activeskin::skin::AnySkin;
 use activeskin::target::{iso_for_radius, Density, Target};
 use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
 use anyhow::{bail, Context};
 
 use super::outputs::{OutputArgs, PhysicsArgs};
-use super::skin::run_frames;
+use super::skin::{input_frames, run_frames, InputFrames};
 
 #[derive(clap::Args)]
 pub struct ParticlesArgs {
@@ -44,17 +44,25 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     if !(iso.is_finite() && iso > 0.0) {
         bail!("--iso must be a positive number, got {iso}");
     }
-    let pattern = FramePattern::parse(&args.particles)?;
-    let existing = pattern.existing_frames()?;
-    let range = match &args.frames {
-        Some(spec) => parse_range(spec).with_context(|| {
-            format!("--frames '{spec}': expected FIRST-LAST with FIRST <= LAST")
-        })?,
-        None => match (existing.first(), existing.last()) {
-            (Some(&a), Some(&b)) => (a, b),
-            _ => bail!("no file matches --particles '{}'", args.particles),
-        },
+    let InputFrames {
+        pattern,
+        existing,
+        range,
+    } = input_frames("--particles", &args.particles, args.frames.as_deref())?;
+    let params = args.physics.params(0.5 * args.radius)?;
+    let density_out = match &args.density_out {
+        Some(spec) => {
+            let out = FramePattern::parse(spec)?;
+            let folder = out.folder();
+            std::fs::create_dir_all(&folder).with_context(|| {
+                format!("{}: cannot create the output folder", folder.display())
+            })?;
+            Some(out)
+        }
+        None => None,
     };
+    // Each frame is read once: its density is the skin's target and, with
+    // --density-out, written as a fog volume on the way.
     let target_at = |frame: i64| -> anyhow::Result<Box<dyn Target>> {
         let path = pattern.path(frame);
         if existing.binary_search(&frame).is_err() {
@@ -63,40 +71,22 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
                 path.display()
             );
         }
-        let frame = particles::read(&path)?;
-        if frame.positions.is_empty() {
+        let cloud = particles::read(&path)?;
+        if cloud.positions.is_empty() {
             bail!("{}: no particles", path.display());
         }
-        Ok(Box::new(Density::new(frame.positions, h, iso)))
-    };
-    let params = args.physics.params(0.5 * args.radius)?;
-    if let Some(spec) = &args.density_out {
-        let out = FramePattern::parse(spec)?;
-        std::fs::create_dir_all(out.folder()).with_context(|| {
-            format!(
-                "{}: cannot create the output folder",
-                out.folder().display()
-            )
-        })?;
-        for frame in range.0..=range.1 {
-            let path = pattern.path(frame);
-            let cloud = particles::read(&path)?;
-            if cloud.positions.is_empty() {
-                bail!("{}: no particles", path.display());
-            }
-            let fog = Density::new(cloud.positions, h, iso).to_fog_volume(params.dx);
+        let density = Density::new(cloud.positions, h, iso);
+        if let Some(out) = &density_out {
+            let fog = Grid::from_data(&density.to_fog_volume(params.dx))?;
             let meta = FileMetadata {
                 creator: format!("activeskin {}", env!("CARGO_PKG_VERSION")),
                 has_frame: true,
                 frame,
             };
-            vdb::write_grids(
-                &out.path(frame),
-                &[(&Grid::from_data(&fog)?, WriteOptions::default())],
-                &meta,
-            )?;
+            vdb::write_grids(&out.path(frame), &[(&fog, WriteOptions::default())], &meta)?;
         }
-    }
+        Ok(Box::new(density))
+    };
     let first = target_at(range.0)?;
     let skin = AnySkin::new(&*first, params);
     drop(first);

@@ -60,8 +60,17 @@ pub fn read_target(
     Ok((target, dx))
 }
 
-/// What a target grid must be: uniform voxels, finite values, not empty.
+/// What a target grid must be: usable (see [`check_usable`]) and not empty.
 fn check_target(path: &Path, data: &GridData) -> anyhow::Result<()> {
+    check_usable(path, data)?;
+    if data.leaf_count() == 0 && data.tiles.is_empty() {
+        bail!("{}: grid '{}' is empty", path.display(), data.name);
+    }
+    Ok(())
+}
+
+/// What any grid we sample or mesh must be: uniform voxels and finite values.
+pub fn check_usable(path: &Path, data: &GridData) -> anyhow::Result<()> {
     let name = &data.name;
     if !data.uniform_linear {
         bail!(
@@ -78,10 +87,39 @@ fn check_target(path: &Path, data: &GridData) -> anyhow::Result<()> {
             path.display()
         );
     }
-    if data.leaf_count() == 0 && data.tiles.is_empty() {
-        bail!("{}: grid '{name}' is empty", path.display());
-    }
     Ok(())
+}
+
+/// `--frames` as every command reads it.
+pub fn parse_frames(spec: &str) -> anyhow::Result<(i64, i64)> {
+    parse_range(spec)
+        .with_context(|| format!("--frames '{spec}': expected FIRST-LAST with FIRST <= LAST"))
+}
+
+/// An input sequence: its pattern, the frames found on disk (sorted), the range to run.
+pub struct InputFrames {
+    pub pattern: FramePattern,
+    pub existing: Vec<i64>,
+    pub range: (i64, i64),
+}
+
+/// Reads the sequence given as `flag` (e.g. `--target`); the range is `frames`, or every
+/// frame found.
+pub fn input_frames(flag: &str, spec: &str, frames: Option<&str>) -> anyhow::Result<InputFrames> {
+    let pattern = FramePattern::parse(spec)?;
+    let existing = pattern.existing_frames()?;
+    let range = match frames {
+        Some(frames) => parse_frames(frames)?,
+        None => match (existing.first(), existing.last()) {
+            (Some(&a), Some(&b)) => (a, b),
+            _ => bail!("no file matches {flag} '{spec}'"),
+        },
+    };
+    Ok(InputFrames {
+        pattern,
+        existing,
+        range,
+    })
 }
 
 /// Runs the frame loop from `first` to `last`: frame `first` is the starting skin, each
@@ -129,17 +167,11 @@ pub fn run_frames<'t>(
 }
 
 pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
-    let pattern = FramePattern::parse(&args.target)?;
-    let existing = pattern.existing_frames()?;
-    let range = match &args.frames {
-        Some(spec) => parse_range(spec).with_context(|| {
-            format!("--frames '{spec}': expected FIRST-LAST with FIRST <= LAST")
-        })?,
-        None => match (existing.first(), existing.last()) {
-            (Some(&a), Some(&b)) => (a, b),
-            _ => bail!("no file matches --target '{}'", args.target),
-        },
-    };
+    let InputFrames {
+        pattern,
+        existing,
+        range,
+    } = input_frames("--target", &args.target, args.frames.as_deref())?;
     let target_file = |frame: i64| -> anyhow::Result<PathBuf> {
         let path = pattern.path(frame);
         if existing.binary_search(&frame).is_ok() {
