@@ -83,6 +83,7 @@ MeshBuffers volume_to_mesh(const FloatGrid &grid, double isovalue, double adapti
 LevelSetMeasures measure_level_set(const FloatGrid &grid);
 MorphTiming morph_timing(const FloatGrid &source, const FloatGrid &target, double duration);
 MorphTiming morph_advance(FloatGrid &grid, const FloatGrid &target, double duration);
+MorphTiming mean_curvature_flow(FloatGrid &grid, uint32_t iterations);
 uint64_t mem_usage(const FloatGrid &grid);
 std::unique_ptr<FloatGrid> mesh_to_level_set(rust::Slice<const float> points,
                                              rust::Slice<const uint32_t> triangles,

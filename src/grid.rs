@@ -224,6 +224,11 @@ impl<P: Potential> SparseGrid<P> {
         let value = self.tile_value(coord);
         self.inside.remove(&coord);
         let id = BlockId(self.blocks.len() as u32);
+        if self.blocks.len() == self.blocks.capacity() {
+            // Grow by 1/16 rather than doubling: a block is 1–2 KB and the band moves by a
+            // few blocks per step, so memory stays within a few percent of what is used.
+            self.blocks.reserve_exact(self.blocks.len() / 16 + 64);
+        }
         self.blocks.push(Block::filled(coord, value));
         self.index.insert(coord, id);
         id
@@ -257,11 +262,18 @@ impl<P: Potential> SparseGrid<P> {
                 i += 1;
             }
         }
-        // The arena grows by doubling; give back what a shrinking skin no longer needs.
+        // Give back what a shrinking skin no longer needs (growth adds len/16 + 64).
         let len = self.blocks.len();
-        if self.blocks.capacity() > len + len / 4 + 64 {
-            self.blocks.shrink_to(len + len / 8);
+        if self.blocks.capacity() > len + len / 16 + 64 {
+            self.blocks.shrink_to(len + len / 64);
         }
+    }
+
+    /// Releases all spare capacity (after building or restoring a grid).
+    pub fn shrink_to_fit(&mut self) {
+        self.blocks.shrink_to_fit();
+        self.index.shrink_to_fit();
+        self.inside.shrink_to_fit();
     }
 
     pub fn active_node_count(&self) -> usize {

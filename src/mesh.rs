@@ -8,6 +8,9 @@ use glam::Vec3;
 use hashbrown::HashMap;
 use rayon::prelude::*;
 
+mod nearest;
+pub use nearest::TriangleIndex;
+
 #[derive(Debug, Clone, Default)]
 pub struct Mesh {
     /// World-space positions.

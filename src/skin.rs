@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use crate::grid::{
     offset_coords, Fixed16, Halo, Potential, Precision, SparseGrid, BLOCK_DIM, BLOCK_NODES,
 };
-use crate::mesh::Mesh;
+use crate::mesh::{Mesh, TriangleIndex};
 use crate::polygonize::{Crossings, IndexToWorld, Polygonizer};
 use crate::stencil::Stencil;
 use crate::target::Target;
@@ -129,6 +129,7 @@ impl<P: Potential> Skin<P> {
             start.distance(xf.apply(ijk.as_vec3())) / (w * dx)
         });
         band::upkeep(&mut grid);
+        grid.shrink_to_fit();
         let mut skin = Skin {
             grid,
             params,
@@ -369,10 +370,24 @@ impl<P: Potential> Skin<P> {
 
     /// The skin as a narrow-band level set: signed distance φ = f·wΔx in world units,
     /// active where |φ| < wΔx, background wΔx, inside tiles at −wΔx (grid `surface`).
+    /// The nodes next to the skin are re-distanced from its mesh first: the solver keeps
+    /// their values (they define the skin), which are not a distance in a thin neck, where
+    /// checkLevelSet would flag them.
     pub fn to_level_set(&self) -> GridData {
         let dx = self.params.dx;
+        let w = self.params.band_width;
         let background = self.background();
-        let blocks = self.grid.blocks();
+        let mut grid = self.grid.clone();
+        let index = TriangleIndex::new(&self.mesh, dx);
+        band::redistance(
+            &mut grid,
+            w,
+            |ijk, bound| {
+                index.distance_within(self.xf.apply(ijk.as_vec3()), 1.001 * bound * dx) / dx
+            },
+            &mut Vec::new(),
+        );
+        let blocks = grid.blocks();
         let mut data = GridData {
             name: "surface".into(),
             class: GridClass::LevelSet,
@@ -400,7 +415,7 @@ impl<P: Potential> Skin<P> {
             }
             data.leaf_masks.push(mask);
         }
-        let mut inside: Vec<IVec3> = self.grid.inside_tiles().iter().copied().collect();
+        let mut inside: Vec<IVec3> = grid.inside_tiles().iter().copied().collect();
         inside.sort_unstable_by_key(|c| c.to_array());
         data.tiles = inside
             .into_iter()
@@ -431,6 +446,7 @@ impl<P: Potential> Skin<P> {
         let scale = self.background();
         self.grid = SparseGrid::from_vdb(data, |phi| phi / scale);
         band::upkeep(&mut self.grid);
+        self.grid.shrink_to_fit();
         self.polygonize();
         Ok(())
     }

@@ -2,11 +2,10 @@
 //! (area, enclosed volume, symmetric Hausdorff distance, Euler characteristic),
 //! LevelSetMeasure (area, volume, χ) and checkLevelSet.
 
-use glam::{IVec3, Vec3};
-use hashbrown::HashMap;
+use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::mesh::Mesh;
+use crate::mesh::{Mesh, TriangleIndex};
 use crate::polygonize::mesh_vdb;
 use crate::vdb::{Grid, GridClass, VdbError};
 
@@ -181,89 +180,9 @@ pub fn mean_distance(from: &Mesh, to: &Mesh, cell: f32) -> f64 {
 
 /// Distance from each vertex of `from` to the triangles of `to`.
 fn distances(from: &Mesh, to: &Mesh, cell: f32) -> Vec<f64> {
-    let key = |p: Vec3| (p / cell).floor().as_ivec3();
-    let mut cells: HashMap<IVec3, Vec<u32>> = HashMap::new();
-    for (i, t) in to.triangles.iter().enumerate() {
-        let [p, q, r] = t.map(|v| to.positions[v as usize]);
-        let (lo, hi) = (key(p.min(q).min(r)), key(p.max(q).max(r)));
-        for x in lo.x..=hi.x {
-            for y in lo.y..=hi.y {
-                for z in lo.z..=hi.z {
-                    cells.entry(IVec3::new(x, y, z)).or_default().push(i as u32);
-                }
-            }
-        }
-    }
+    let index = TriangleIndex::new(to, cell);
     from.positions
         .par_iter()
-        .map(|&p| {
-            let c = key(p);
-            let mut best = f32::INFINITY;
-            for x in -2..=2 {
-                for y in -2..=2 {
-                    for z in -2..=2 {
-                        let Some(list) = cells.get(&(c + IVec3::new(x, y, z))) else {
-                            continue;
-                        };
-                        for &t in list {
-                            let [a, b, c] =
-                                to.triangles[t as usize].map(|v| to.positions[v as usize]);
-                            best = best.min(point_triangle_distance(p, a, b, c));
-                        }
-                    }
-                }
-            }
-            f64::from(best)
-        })
+        .map(|&p| f64::from(index.distance(p, 2)))
         .collect()
-}
-
-/// Distance from `p` to triangle `abc` (Ericson, Real-Time Collision Detection, 5.1.5).
-fn point_triangle_distance(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return p.distance(a);
-    }
-    let bp = p - b;
-    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return p.distance(b);
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return p.distance(a + ab * (d1 / (d1 - d3)));
-    }
-    let cp = p - c;
-    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return p.distance(c);
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return p.distance(a + ac * (d2 / (d2 - d6)));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        return p.distance(b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))));
-    }
-    let denom = 1.0 / (va + vb + vc);
-    p.distance(a + ab * (vb * denom) + ac * (vc * denom))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::point_triangle_distance;
-    use glam::Vec3;
-
-    #[test]
-    fn point_triangle_distance_in_each_region() {
-        let (a, b, c) = (Vec3::ZERO, Vec3::X, Vec3::Y);
-        let d = |p: Vec3| point_triangle_distance(p, a, b, c);
-        assert!((d(Vec3::new(0.2, 0.2, 0.5)) - 0.5).abs() < 1e-6); // face
-        assert!((d(Vec3::new(-1.0, -1.0, 0.0)) - 2f32.sqrt()).abs() < 1e-6); // vertex a
-        assert!((d(Vec3::new(0.5, -2.0, 0.0)) - 2.0).abs() < 1e-6); // edge ab
-        assert!((d(Vec3::new(1.0, 1.0, 0.0)) - 0.5f32.sqrt()).abs() < 1e-6); // edge bc
-        assert!((d(Vec3::new(3.0, 0.0, 0.0)) - 2.0).abs() < 1e-6); // vertex b
-    }
 }

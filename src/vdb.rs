@@ -295,6 +295,12 @@ impl Grid {
             .map_err(|e| VdbError::Grid(one_line(e.what())))
     }
 
+    /// `iterations` of OpenVDB's mean-curvature filter in place, timed.
+    pub fn mean_curvature_flow(&mut self, iterations: u32) -> Result<MorphTiming, VdbError> {
+        ffi::bridge::mean_curvature_flow(self.inner.pin_mut(), iterations)
+            .map_err(|e| VdbError::Grid(one_line(e.what())))
+    }
+
     /// OpenVDB's `memUsage()`: bytes held by the grid.
     pub fn mem_usage(&self) -> u64 {
         ffi::bridge::mem_usage(&self.inner)

@@ -196,6 +196,21 @@ fn openvdb_tools_measure_a_sphere() {
 }
 
 #[test]
+fn mean_curvature_flow_shrinks_a_sphere_at_its_rate() {
+    // Each iteration moves the surface by (κ₁+κ₂)/2 · Δx²/3 = Δx²/(3r): 60 iterations on
+    // a sphere of 20 voxels take it in by 1 voxel (r shrinks by ≈ 60/(3·20) voxels).
+    let dx = 0.05f32;
+    let r0 = 20.0 * f64::from(dx);
+    let mut sphere = Grid::level_set_sphere(r0 as f32, [0.0; 3], dx, 3.0).unwrap();
+    let timing = sphere.mean_curvature_flow(60).unwrap();
+    assert_eq!(timing.iterations, 60);
+    let volume = sphere.measure_level_set().unwrap().volume;
+    let r = (3.0 * volume / (4.0 * PI)).cbrt();
+    let shrink = (r0 - r) / f64::from(dx);
+    assert!((shrink - 1.0).abs() < 0.1, "shrank by {shrink} voxels");
+}
+
+#[test]
 fn check_level_set_reports_a_broken_band() {
     let mut data = Grid::level_set_sphere(1.0, [0.0; 3], 0.05, 3.0)
         .unwrap()
@@ -225,6 +240,9 @@ fn openvdb_errors_arrive_as_err_with_their_message() {
     data.class = GridClass::FogVolume;
     let fog = Grid::from_data(&data).unwrap();
     let err = fog.measure_level_set().unwrap_err().to_string();
+    assert!(err.contains("level set"), "{err}");
+    let mut fog = fog;
+    let err = fog.mean_curvature_flow(1).unwrap_err().to_string();
     assert!(err.contains("level set"), "{err}");
 
     data.leaf_values.pop();

@@ -110,6 +110,17 @@ fn dilated_band(halo: &Halo) -> [u64; 8] {
 
 // Node offsets and axes are coordinates here, not just indices.
 #[allow(clippy::needless_range_loop)]
+/// Whether the node at `l` has an axis neighbour of the other sign: the skin crosses one
+/// of its edges, so its value defines the skin.
+#[inline]
+fn next_to_skin(halo: &Halo, l: IVec3, f: f32) -> bool {
+    IVec3::AXES.iter().any(|&e| {
+        let (lo, hi) = (l - e, l + e);
+        (halo.at(lo.x, lo.y, lo.z) < 0.0) != (f < 0.0)
+            || (halo.at(hi.x, hi.y, hi.z) < 0.0) != (f < 0.0)
+    })
+}
+
 /// One Jacobi sweep of the Godunov upwind scheme for |∇f| = 1/w, over active nodes not
 /// next to the skin (those define it and keep their values). Keeps the potential a
 /// scaled signed distance, which the paper leaves to drift (§4.1); `scratch` is reused.
@@ -119,6 +130,59 @@ pub fn renormalize<P: Potential>(
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
 ) {
     let h = 1.0 / band_width;
+    sweep(grid, scratch, |halo, l, _, f| {
+        if next_to_skin(halo, l, f) {
+            return f;
+        }
+        let s = if f < 0.0 { -1.0 } else { 1.0 };
+        let a = IVec3::AXES.map(|e| {
+            let (lo, hi) = (l - e, l + e);
+            (s * halo.at(lo.x, lo.y, lo.z)).min(s * halo.at(hi.x, hi.y, hi.z))
+        });
+        s * godunov(a, h).min(1.0)
+    });
+}
+
+/// Makes the potential a signed distance next to the skin, for export: each node with an
+/// edge crossing takes `distance(node, bound)` (voxels: its exact distance to the skin's
+/// mesh, at most `bound`, its nearest crossing) with its sign. The nodes farther out
+/// already hold the renormalised distance from these. The skin moves by second-order
+/// terms only: on an edge crossed at t, distances t·c and (1−t)·c keep the crossing at t.
+pub fn redistance<P: Potential>(
+    grid: &mut SparseGrid<P>,
+    band_width: f32,
+    distance: impl Fn(IVec3, f32) -> f32 + Sync,
+    scratch: &mut Vec<[f32; BLOCK_NODES]>,
+) {
+    sweep(grid, scratch, |halo, l, ijk, f| {
+        let mut bound = f32::INFINITY;
+        for e in IVec3::AXES {
+            for n in [l - e, l + e] {
+                let g = halo.at(n.x, n.y, n.z);
+                if (g < 0.0) != (f < 0.0) {
+                    bound = bound.min(f / (f - g));
+                }
+            }
+        }
+        if bound > 1.0 {
+            return f; // not next to the skin
+        }
+        let d = (distance(ijk, bound) / band_width).min(1.0);
+        if d.is_finite() {
+            f.signum() * d
+        } else {
+            f
+        }
+    });
+}
+
+/// Replaces each active node's value by `update(halo, local, global, f)`, read from the
+/// values before the sweep (Jacobi); `scratch` is reused.
+fn sweep<P: Potential>(
+    grid: &mut SparseGrid<P>,
+    scratch: &mut Vec<[f32; BLOCK_NODES]>,
+    update: impl Fn(&Halo, IVec3, IVec3, f32) -> f32 + Sync,
+) {
     scratch.resize(grid.block_count(), [0.0; BLOCK_NODES]);
     let grid_ref = &*grid;
     scratch
@@ -126,29 +190,15 @@ pub fn renormalize<P: Potential>(
         .zip(grid_ref.blocks().par_iter())
         .for_each_init(Box::<Halo>::default, |halo, (out, block)| {
             halo.gather(grid_ref, block.coord);
-            for offset in 0..BLOCK_NODES {
+            let base = block.coord * BLOCK_DIM;
+            for (offset, out) in out.iter_mut().enumerate() {
                 let l = offset_coords(offset);
                 let f = halo.at(l.x, l.y, l.z);
-                out[offset] = f;
-                if !block.is_active(offset) {
-                    continue;
-                }
-                let s = if f < 0.0 { -1.0 } else { 1.0 };
-                let mut a = [0.0f32; 3];
-                let mut frozen = false;
-                for axis in 0..3 {
-                    let e = IVec3::AXES[axis];
-                    let (lo, hi) = (l - e, l + e);
-                    let (fl, fh) = (halo.at(lo.x, lo.y, lo.z), halo.at(hi.x, hi.y, hi.z));
-                    if (fl < 0.0) != (f < 0.0) || (fh < 0.0) != (f < 0.0) {
-                        frozen = true;
-                        break;
-                    }
-                    a[axis] = (s * fl).min(s * fh);
-                }
-                if !frozen {
-                    out[offset] = s * godunov(a, h).min(1.0);
-                }
+                *out = if block.is_active(offset) {
+                    update(halo, l, base + l, f)
+                } else {
+                    f
+                };
             }
         });
     for (block, values) in grid.blocks_mut().iter_mut().zip(scratch.iter()) {

@@ -163,6 +163,9 @@ pub(crate) mod bridge {
             target: &FloatGrid,
             duration: f64,
         ) -> Result<MorphTiming>;
+        /// `iterations` of `tools::LevelSetFilter::meanCurvature` in place, timed: each
+        /// moves the surface by (κ₁+κ₂)/2 · Δx²/3.
+        fn mean_curvature_flow(grid: Pin<&mut FloatGrid>, iterations: u32) -> Result<MorphTiming>;
         /// `Grid::memUsage()`, bytes.
         fn mem_usage(grid: &FloatGrid) -> u64;
         /// `tools::checkLevelSet`: empty when the grid is a valid narrow-band level set.
