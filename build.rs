@@ -13,7 +13,7 @@ const REQUIRED: &[(&str, &str)] = &[
     ("Imath/half.h", "libimath-dev"),
 ];
 
-const BRIDGE_SOURCES: &[&str] = &["cpp/vdb_bridge.cc", "cpp/vdb_tools.cc"];
+const BRIDGE_SOURCES: &[&str] = &["cpp/vdb_bridge.cc", "cpp/vdb_tools.cc", "cpp/vdb_points.cc"];
 
 /// Folders named by `OPENVDB_INCLUDE_DIR` (a PATH-style list), searched before the system's.
 fn extra_include_dirs() -> Vec<PathBuf> {

@@ -58,15 +58,6 @@ bool is_uniform_linear(const openvdb::math::Transform &xf) {
   return xf.isLinear() && xf.hasUniformScale();
 }
 
-// Opens without delayed loading: nothing stays memory-mapped, so the file can be
-// overwritten while its grids are alive.
-std::unique_ptr<openvdb::io::File> open_file(rust::Str path) {
-  ensure_initialized();
-  auto file = std::make_unique<openvdb::io::File>(std::string(path));
-  file->open(/*delayLoad=*/false);
-  return file;
-}
-
 // A pure uniform scale plus translation is built the way OpenVDB builds its own, so the
 // voxel size reads back bit for bit. (A Transform constructed from a map "simplifies" it
 // and recovers the scale as (d + t) - t, which loses the last bit.)
@@ -86,6 +77,16 @@ std::array<double, 3> to_array(const openvdb::Vec3d &v) { return {v[0], v[1], v[
 
 }  // namespace
 
+// Opens without delayed loading: nothing stays memory-mapped, so the file can be
+// overwritten while its grids are alive.
+std::unique_ptr<openvdb::io::File> open_file(rust::Str path) {
+  ensure_initialized();
+  auto file = std::make_unique<openvdb::io::File>(std::string(path));
+  file->open(/*delayLoad=*/false);
+  return file;
+}
+
+
 rust::Vec<GridSummary> list_grids(rust::Str path) {
   auto file = open_file(path);
   openvdb::GridPtrVecPtr grids = file->getGrids();
@@ -100,6 +101,7 @@ rust::Vec<GridSummary> list_grids(rust::Str path) {
     s.voxel_size = to_array(xf.voxelSize());
     s.uniform_linear = is_uniform_linear(xf);
     s.active_voxels = grid->activeVoxelCount();
+    s.points = point_count(*grid);
     const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
     s.has_bbox = s.active_voxels > 0 && !box.empty();
     s.bbox_min = {0, 0, 0};

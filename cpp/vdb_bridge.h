@@ -34,6 +34,7 @@ struct MeshBuffers;
 struct LevelSetMeasures;
 struct MorphTiming;
 struct FileMetadata;
+struct PointBuffers;
 
 class FloatGrid {
  public:
@@ -85,6 +86,9 @@ MorphTiming morph_timing(const FloatGrid &source, const FloatGrid &target, doubl
 MorphTiming morph_advance(FloatGrid &grid, const FloatGrid &target, double duration);
 MorphTiming mean_curvature_flow(FloatGrid &grid, uint32_t iterations);
 uint64_t mem_usage(const FloatGrid &grid);
+PointBuffers read_points(rust::Str path, rust::Str name);
+void write_points(rust::Str path, rust::Slice<const float> positions,
+                  rust::Slice<const float> radii, double voxel_size, rust::Str name);
 std::unique_ptr<FloatGrid> mesh_to_level_set(rust::Slice<const float> points,
                                              rust::Slice<const uint32_t> triangles,
                                              double voxel_size, float half_width);

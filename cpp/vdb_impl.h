@@ -15,6 +15,12 @@ struct FloatGrid::Impl {
 // openvdb::initialize() exactly once, from whichever entry point runs first.
 void ensure_initialized();
 
+// Opens a file for reading, without delayed loading (nothing stays memory-mapped).
+std::unique_ptr<openvdb::io::File> open_file(rust::Str path);
+
+// Points held by a point data grid; 0 for any other grid (vdb_points.cc).
+uint64_t point_count(const openvdb::GridBase &grid);
+
 // Wraps a grid in a handle (the grid is shared, not copied).
 std::unique_ptr<FloatGrid> wrap(openvdb::FloatGrid::Ptr grid);
 

@@ -1,5 +1,6 @@
 //! Particle frames (paper §6.1): positions and optional radii read from PLY (ASCII or
-//! binary little/big endian) or plain text (XYZ or CSV: `x y z [radius]` per line).
+//! binary little/big endian), OpenVDB point data grids (`P`, `pscale`; through the
+//! bridge) or plain text (XYZ or CSV: `x y z [radius]` per line).
 
 use std::path::{Path, PathBuf};
 
@@ -21,23 +22,32 @@ pub struct Particles {
     pub radii: Option<Vec<f32>>,
 }
 
-/// Reads a frame by extension: `.ply`, or `.xyz` / `.csv` / `.txt`.
+/// Reads a frame by extension: `.ply`, `.vdb` (the first point data grid), or `.xyz` /
+/// `.csv` / `.txt`.
 pub fn read(path: &Path) -> Result<Particles, ParticleError> {
     let error = |message: String| ParticleError {
         path: path.to_path_buf(),
         message,
     };
-    let bytes = std::fs::read(path).map_err(|e| error(e.to_string()))?;
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    let particles = match ext.as_deref() {
-        Some("ply") => read_ply(&bytes),
-        Some("xyz" | "csv" | "txt") => read_text(&bytes),
-        _ => Err("particle files must end in .ply, .xyz, .csv or .txt".into()),
-    }
-    .map_err(error)?;
+    let particles = if ext.as_deref() == Some("vdb") {
+        // The VDB reader names the file in its own errors.
+        read_vdb(path).map_err(|e| ParticleError {
+            path: path.to_path_buf(),
+            message: e.reason(),
+        })?
+    } else {
+        let bytes = std::fs::read(path).map_err(|e| error(e.to_string()))?;
+        match ext.as_deref() {
+            Some("ply") => read_ply(&bytes),
+            Some("xyz" | "csv" | "txt") => read_text(&bytes),
+            _ => Err("particle files must end in .ply, .vdb, .xyz, .csv or .txt".into()),
+        }
+        .map_err(error)?
+    };
     if let Some(i) = particles.positions.iter().position(|p| !p.is_finite()) {
         return Err(error(format!(
             "particle {i} has a NaN or infinite coordinate"
@@ -51,6 +61,18 @@ pub fn read(path: &Path) -> Result<Particles, ParticleError> {
         }
     }
     Ok(particles)
+}
+
+fn read_vdb(path: &Path) -> Result<Particles, crate::vdb::VdbError> {
+    let points = crate::vdb::read_points(path, None)?;
+    Ok(Particles {
+        positions: points
+            .positions
+            .chunks_exact(3)
+            .map(|p| Vec3::new(p[0], p[1], p[2]))
+            .collect(),
+        radii: points.has_radius.then_some(points.radii),
+    })
 }
 
 fn read_text(bytes: &[u8]) -> Result<Particles, String> {

@@ -14,7 +14,8 @@ use cxx::UniquePtr;
 use glam::Vec3;
 
 pub use ffi::bridge::{
-    FileMetadata, GridClass, GridSummary, LevelSetMeasures, MeshBuffers, MorphTiming, Tile,
+    FileMetadata, GridClass, GridSummary, LevelSetMeasures, MeshBuffers, MorphTiming, PointBuffers,
+    Tile,
 };
 
 /// Voxels per leaf (8³), in OpenVDB's order: offset = (x & 7) << 6 | (y & 7) << 3 | (z & 7).
@@ -37,6 +38,14 @@ impl VdbError {
         VdbError::File {
             path: path.to_path_buf(),
             message: one_line(&message.to_string()),
+        }
+    }
+
+    /// What went wrong, without the file name.
+    pub fn reason(&self) -> String {
+        match self {
+            VdbError::File { message, .. } => message.clone(),
+            VdbError::Grid(message) => message.clone(),
         }
     }
 }
@@ -355,6 +364,37 @@ pub fn write_grids(
         writer
             .write(&tmp.to_string_lossy(), metadata)
             .map_err(|e| e.what().to_string())
+    })
+    .map_err(|message| VdbError::file(path, message))
+}
+
+/// Positions (world space) and `pscale` radii of a point data grid, as Houdini's VDB from
+/// Points writes them: the grid `name`, or the first point data grid of the file.
+pub fn read_points(path: &Path, name: Option<&str>) -> Result<ffi::bridge::PointBuffers, VdbError> {
+    check_vdb_file(path)?;
+    ffi::bridge::read_points(&path.to_string_lossy(), name.unwrap_or(""))
+        .map_err(|e| openvdb_read_error(path, &e))
+}
+
+/// Writes one point data grid named `name` (positions in 16-bit fixed point relative to
+/// their voxel, `pscale` when `radii` is given), atomically.
+pub fn write_points(
+    path: &Path,
+    positions: &[[f32; 3]],
+    radii: Option<&[f32]>,
+    voxel_size: f64,
+    name: &str,
+) -> Result<(), VdbError> {
+    let flat: Vec<f32> = positions.iter().flatten().copied().collect();
+    crate::io::write_atomically(path, |tmp| {
+        ffi::bridge::write_points(
+            &tmp.to_string_lossy(),
+            &flat,
+            radii.unwrap_or(&[]),
+            voxel_size,
+            name,
+        )
+        .map_err(|e| e.what().to_string())
     })
     .map_err(|message| VdbError::file(path, message))
 }

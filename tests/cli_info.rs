@@ -121,7 +121,7 @@ fn vector_grid_only() {
     let path = dir.path().join("velocity.vdb");
     vdb::write_vector_grid_file(&path).unwrap();
     let out = activeskin(&[&path]);
-    assert_one_line_error(&out, &path, "no float grid");
+    assert_one_line_error(&out, &path, "no float or point data grid");
     // The grid is still described, so the user sees what the file holds.
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(

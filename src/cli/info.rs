@@ -12,9 +12,13 @@ pub fn run(files: &[PathBuf]) -> anyhow::Result<()> {
         match vdb::list_grids(path) {
             Ok(grids) => {
                 print!("{}", describe(path, &grids));
-                if !grids.iter().any(|g| g.value_type == "float") {
+                // Float grids are targets (`skin`), point data grids particles.
+                let usable = |g: &GridSummary| {
+                    g.value_type == "float" || g.value_type.starts_with("ptdataidx")
+                };
+                if !grids.iter().any(usable) {
                     failures.push(format!(
-                        "{}: no float grid that activeskin can use",
+                        "{}: no float or point data grid that activeskin can use",
                         path.display()
                     ));
                 }
@@ -74,6 +78,13 @@ pub fn describe(path: &Path, grids: &[GridSummary]) -> String {
         };
         let _ = writeln!(s, "  voxel size     {voxel} ({transform})");
         let _ = writeln!(s, "  active voxels  {}", g.active_voxels);
+        if g.value_type.starts_with("ptdataidx") {
+            let _ = writeln!(
+                s,
+                "  points         {} (particles: activeskin particles)",
+                g.points
+            );
+        }
         if g.has_bbox {
             let _ = writeln!(
                 s,

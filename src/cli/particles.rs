@@ -13,7 +13,8 @@ use super::skin::{input_frames, run_frames, InputFrames};
 
 #[derive(clap::Args)]
 pub struct ParticlesArgs {
-    /// Particle frames: PLY (ASCII or binary; x y z, optional radius), XYZ or CSV text.
+    /// Particle frames: PLY (ASCII or binary; x y z, optional radius), VDB point data
+    /// grids (the first in each file, as Houdini's VDB from Points writes), XYZ or CSV text.
     #[arg(long)]
     particles: String,
     /// Particle radius: the surface of a lone particle sits this far from it.

@@ -26,6 +26,8 @@ pub(crate) mod bridge {
         /// Linear map with one scale on all axes: what activeskin can work in.
         uniform_linear: bool,
         active_voxels: u64,
+        /// Points held, for a point data grid (0 otherwise).
+        points: u64,
         /// False when the grid has no active voxel (then the bounding box is meaningless).
         has_bbox: bool,
         /// World-space box around the centres of the active voxels.
@@ -85,6 +87,17 @@ pub(crate) mod bridge {
         mean_curvature: f64,
         euler_characteristic: i32,
         genus: i32,
+    }
+
+    /// The points of a point data grid, in world space.
+    #[derive(Debug, Clone, Default)]
+    struct PointBuffers {
+        grid_name: String,
+        /// x, y, z per point.
+        positions: Vec<f32>,
+        /// `pscale` per point when `has_radius`.
+        radii: Vec<f32>,
+        has_radius: bool,
     }
 
     /// File-level metadata written with the grids.
@@ -166,6 +179,18 @@ pub(crate) mod bridge {
         /// `iterations` of `tools::LevelSetFilter::meanCurvature` in place, timed: each
         /// moves the surface by (κ₁+κ₂)/2 · Δx²/3.
         fn mean_curvature_flow(grid: Pin<&mut FloatGrid>, iterations: u32) -> Result<MorphTiming>;
+        /// The positions (and `pscale`) of the point data grid `name`, or of the first one
+        /// when `name` is empty.
+        fn read_points(path: &str, name: &str) -> Result<PointBuffers>;
+        /// Writes one point data grid (16-bit fixed-point positions, `pscale` when `radii`
+        /// is not empty): a fixture for tests and the sample data.
+        fn write_points(
+            path: &str,
+            positions: &[f32],
+            radii: &[f32],
+            voxel_size: f64,
+            name: &str,
+        ) -> Result<()>;
         /// `Grid::memUsage()`, bytes.
         fn mem_usage(grid: &FloatGrid) -> u64;
         /// `tools::checkLevelSet`: empty when the grid is a valid narrow-band level set.

@@ -1,0 +1,150 @@
+//! OpenVDB point data grids as particle frames: positions (16-bit fixed point relative to
+//! their voxel, as Houdini writes them) and `pscale` come back through the bridge; files
+//! without points or cut short are one-line errors; `activeskin particles` skins them.
+
+use std::path::Path;
+use std::process::Command;
+
+use activeskin::particles;
+use activeskin::vdb;
+use glam::Vec3;
+
+fn scattered(n: usize, seed: u64) -> Vec<[f32; 3]> {
+    let mut state = seed;
+    let mut next = move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    (0..n)
+        .map(|_| [next() - 0.5, next() - 0.5, next() - 0.5].map(|c| 2.0 * c + 1.5))
+        .collect()
+}
+
+#[test]
+fn positions_and_pscale_round_trip_within_fixed_point() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("points.vdb");
+    let points = scattered(700, 3);
+    let radii: Vec<f32> = (0..points.len()).map(|i| 0.01 + i as f32 * 1e-5).collect();
+    let voxel = 0.1;
+    vdb::write_points(&path, &points, Some(&radii), voxel, "points").unwrap();
+    let read = particles::read(&path).unwrap();
+    assert_eq!(read.positions.len(), points.len());
+    let read_radii = read.radii.expect("pscale read as radius");
+    // Points come back in voxel order: match each to its nearest original.
+    let tolerance = voxel as f32 / 32768.0 * 1.5;
+    for (p, r) in read.positions.iter().zip(&read_radii) {
+        let (i, d) = points
+            .iter()
+            .enumerate()
+            .map(|(i, q)| (i, p.distance(Vec3::from_array(*q))))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap();
+        assert!(d <= tolerance, "point {p} is {d} from the nearest original");
+        assert_eq!(*r, radii[i]);
+    }
+
+    vdb::write_points(&path, &points, None, voxel, "points").unwrap();
+    assert_eq!(particles::read(&path).unwrap().radii, None);
+
+    // `info` lists it as usable input.
+    let info = activeskin(&["info", path.to_str().unwrap()]);
+    let listing = String::from_utf8_lossy(&info.stdout);
+    assert!(info.status.success(), "{listing}");
+    assert!(
+        listing.contains("ptdataidx32") && listing.contains("700"),
+        "{listing}"
+    );
+}
+
+fn activeskin(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_activeskin"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn one_line_error(path: &Path) -> String {
+    let err = particles::read(path).unwrap_err().to_string();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains(&path.display().to_string()), "{err}");
+    err
+}
+
+#[test]
+fn files_without_points_or_cut_short_are_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let level_set = dir.path().join("sphere.vdb");
+    let sphere = vdb::Grid::level_set_sphere(1.0, [0.0; 3], 0.1, 3.0).unwrap();
+    let meta = vdb::FileMetadata {
+        creator: "test".into(),
+        has_frame: false,
+        frame: 0,
+    };
+    vdb::write_grids(
+        &level_set,
+        &[(&sphere, vdb::WriteOptions::default())],
+        &meta,
+    )
+    .unwrap();
+    let err = one_line_error(&level_set);
+    assert!(
+        err.contains("no point data grid") && err.contains("float"),
+        "{err}"
+    );
+
+    let path = dir.path().join("points.vdb");
+    vdb::write_points(&path, &scattered(500, 5), None, 0.1, "points").unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    for tenth in 0..10 {
+        let cut = dir.path().join(format!("cut{tenth}.vdb"));
+        std::fs::write(&cut, &bytes[..bytes.len() * tenth / 10]).unwrap();
+        one_line_error(&cut);
+    }
+}
+
+#[test]
+fn particles_command_skins_a_point_data_grid_sequence() {
+    let dir = tempfile::tempdir().unwrap();
+    // A ball of particles on a lattice 0.05 apart.
+    let ball: Vec<[f32; 3]> = (-8..=8)
+        .flat_map(|x| (-8..=8).flat_map(move |y| (-8..=8).map(move |z| [x, y, z])))
+        .map(|c| Vec3::from_array(c.map(|i| i as f32 * 0.05)))
+        .filter(|p| p.length() <= 0.4)
+        .map(|p| (p + Vec3::splat(1.5)).to_array())
+        .collect();
+    for frame in 1..=3 {
+        let path = dir.path().join(format!("pts.{frame:04}.vdb"));
+        vdb::write_points(&path, &ball, None, 0.05, "points").unwrap();
+    }
+    let out = dir.path().join("skin.####.vdb");
+    let result = activeskin(&[
+        "particles",
+        "--particles",
+        dir.path().join("pts.####.vdb").to_str().unwrap(),
+        "--radius",
+        "0.05",
+        "--out",
+        out.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    let skin = vdb::Grid::read(&dir.path().join("skin.0003.vdb"), None).unwrap();
+    let m = skin.measure_level_set().unwrap();
+    // A ball of radius 0.4 dressed with particles of radius 0.05: about 0.4–0.45 across.
+    let r = (3.0 * m.volume / (4.0 * std::f64::consts::PI)).cbrt();
+    assert!((0.35..0.5).contains(&r), "skin radius {r}");
+    let mesh = activeskin::validate::our_mesh(&skin).unwrap();
+    assert_eq!(
+        (mesh.components(), mesh.euler_characteristic()),
+        (1, 2),
+        "one sphere (OpenVDB's measure says χ = {})",
+        m.euler_characteristic
+    );
+}
