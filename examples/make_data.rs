@@ -5,14 +5,20 @@
 //! - `moving/sphere.####.vdb`: a sphere of radius 0.3 gliding 0.2 along x.
 //! - `splitting/pair.####.vdb`: two overlapping spheres of radius 0.25 that move apart
 //!   and separate (a merge, read backwards).
+//!
+//! and a particle sequence:
+//! - `splash/drop.####.ply`: a drop of about 500 particles (spacing 0.04) falling on a
+//!   floor and splashing, 36 frames at 24 fps (`activeskin::particles::splash`).
 
 use std::path::PathBuf;
 
+use activeskin::particles::{self, splash::Splash};
 use activeskin::target::{sample, Sphere, Target, Union};
 use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
 use glam::Vec3;
 
 const DX: f32 = 1.0 / 16.0;
+const SPLASH_FRAMES: i64 = 36;
 
 /// Every shape sits around this point, inside one of OpenVDB's top-level nodes (4096
 /// voxels from the origin): a shape straddling the origin touches eight, whose masks,
@@ -62,6 +68,15 @@ fn main() -> Result<(), activeskin::Error> {
             out.join(format!("splitting/pair.{frame:04}.vdb")),
             frame,
         )?;
+    }
+    std::fs::create_dir_all(out.join("splash")).expect("create data/splash");
+    let mut splash = Splash::new();
+    for frame in 1..=SPLASH_FRAMES {
+        particles::write_ply(
+            &out.join(format!("splash/drop.{frame:04}.ply")),
+            splash.positions(),
+        )?;
+        splash.advance(1.0 / 24.0);
     }
     Ok(())
 }

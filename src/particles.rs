@@ -6,6 +6,8 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
+pub mod splash;
+
 /// A particle frame that cannot be read.
 #[derive(Debug, thiserror::Error)]
 #[error("{}: {message}", path.display())]
@@ -61,6 +63,26 @@ pub fn read(path: &Path) -> Result<Particles, ParticleError> {
         }
     }
     Ok(particles)
+}
+
+/// Writes positions as a binary little-endian PLY (`x y z` floats), atomically.
+pub fn write_ply(path: &Path, positions: &[Vec3]) -> Result<(), ParticleError> {
+    let mut bytes = format!(
+        "ply\nformat binary_little_endian 1.0\ncomment activeskin\nelement vertex {}\n\
+         property float x\nproperty float y\nproperty float z\nend_header\n",
+        positions.len()
+    )
+    .into_bytes();
+    for c in positions.iter().flat_map(|p| p.to_array()) {
+        bytes.extend_from_slice(&c.to_le_bytes());
+    }
+    crate::io::write_atomically(path, |tmp| {
+        std::fs::write(tmp, &bytes).map_err(|e| e.to_string())
+    })
+    .map_err(|message| ParticleError {
+        path: path.to_path_buf(),
+        message,
+    })
 }
 
 fn read_vdb(path: &Path) -> Result<Particles, crate::vdb::VdbError> {

@@ -37,11 +37,23 @@ pub struct Report {
     pub rows: Vec<Row>,
     /// checkLevelSet's diagnostic, empty when valid.
     pub check: String,
+    /// When checkLevelSet's Eikonal test fails: the voxels it flags on OpenVDB's
+    /// meshToLevelSet of the same surface (see [`eikonal_against_exact`]).
+    pub exact_flagged: Option<usize>,
 }
 
 impl Report {
+    /// checkLevelSet passes, or flags no more voxels than on the exact conversion of the
+    /// same surface (thin features).
+    pub fn check_passes(&self) -> bool {
+        self.check.is_empty()
+            || self
+                .exact_flagged
+                .is_some_and(|exact| flagged_voxels(&Err(self.check.clone())) <= exact)
+    }
+
     pub fn passes(&self) -> bool {
-        self.check.is_empty() && self.rows.iter().all(Row::passes)
+        self.check_passes() && self.rows.iter().all(Row::passes)
     }
 }
 
@@ -103,10 +115,12 @@ pub fn compare(grid: &Grid) -> Result<Report, VdbError> {
     };
     let chi = ours.euler_characteristic() as f64;
     let hausdorff = hausdorff(&ours, &theirs, dx as f32) / dx;
-    let check = match grid.check_level_set()? {
-        Ok(()) => String::new(),
-        Err(message) => message,
+    let verdict = grid.check_level_set()?;
+    let exact_flagged = match &verdict {
+        Err(message) if message.contains("NormGrad") => Some(eikonal_against_exact(grid)?.1),
+        _ => None,
     };
+    let check = verdict.err().unwrap_or_default();
     Ok(Report {
         rows: vec![
             row(
@@ -160,7 +174,36 @@ pub fn compare(grid: &Grid) -> Result<Report, VdbError> {
             ),
         ],
         check,
+        exact_flagged,
     })
+}
+
+/// checkLevelSet's verdict on `grid` and on OpenVDB's meshToLevelSet of our mesh of the
+/// same surface (exact distances), as voxels flagged. Features thinner than about three
+/// voxels (necks, sheets, droplets) are not Eikonal by checkLevelSet's WENO test whoever
+/// builds the level set: the exact conversion is the fair bar there.
+pub fn eikonal_against_exact(grid: &Grid) -> Result<(usize, usize), VdbError> {
+    let dx = grid.to_data()?.transform.voxel_size();
+    let mesh = our_mesh(grid)?;
+    let exact = Grid::mesh_to_level_set(&mesh.positions, &mesh.triangles, dx, 3.0)?;
+    Ok((
+        flagged_voxels(&grid.check_level_set()?),
+        flagged_voxels(&exact.check_level_set()?),
+    ))
+}
+
+/// Voxels flagged by a checkLevelSet verdict: 0 when valid, all of them (usize::MAX)
+/// when it fails for another reason than the Eikonal test.
+fn flagged_voxels(verdict: &Result<(), String>) -> usize {
+    match verdict {
+        Ok(()) => 0,
+        Err(message) if message.contains("NormGrad") => message
+            .split_whitespace()
+            .next()
+            .and_then(|n| n.parse().ok())
+            .unwrap_or(usize::MAX),
+        Err(_) => usize::MAX,
+    }
 }
 
 /// Symmetric Hausdorff distance between two meshes (world units), searched through a
@@ -185,4 +228,25 @@ fn distances(from: &Mesh, to: &Mesh, cell: f32) -> Vec<f64> {
         .par_iter()
         .map(|&p| f64::from(index.distance(p, 2)))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Report;
+
+    #[test]
+    fn eikonal_failures_pass_only_when_no_worse_than_the_exact_conversion() {
+        let report = |check: &str, exact_flagged| Report {
+            rows: Vec::new(),
+            check: check.into(),
+            exact_flagged,
+        };
+        let flagged = "164 voxels are outside the range of NormGrad [0.5,1.5]";
+        assert!(report("", None).passes());
+        assert!(report(flagged, Some(288)).passes());
+        assert!(report(flagged, Some(164)).passes());
+        assert!(!report(flagged, Some(100)).passes());
+        assert!(!report(flagged, None).passes());
+        assert!(!report("background is not 3 voxels", Some(1000)).passes());
+    }
 }

@@ -1,11 +1,13 @@
 //! `activeskin demo [--out DIR]`: the built-in demo, no input needed — the Fig. 7 morph
-//! (six point skeletons → a pair of spheres: a filament, then a split) and a skin chasing
-//! a target that orbits and swells, each as VDB, OBJ, EXR and stats sequences.
+//! (six point skeletons → a pair of spheres: a filament, then a split), a skin chasing
+//! a target that orbits and swells, and a skin dressing a splashing drop of particles
+//! (§6.1), each as VDB, OBJ, EXR and stats sequences.
 
 use std::path::{Path, PathBuf};
 
+use activeskin::particles::{self, splash};
 use activeskin::skin::AnySkin;
-use activeskin::target::{Aabb, Blobs, Sphere, Target, Union};
+use activeskin::target::{iso_for_radius, Aabb, Blobs, Density, Sphere, Target, Union};
 use glam::Vec3;
 
 use super::outputs::{OutputArgs, PhysicsArgs, PrecisionArg};
@@ -92,8 +94,33 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         Ok(Box::new(Orbiting { time }) as Box<dyn Target>)
     })?;
 
+    // The drop of data/splash (same animation), its particles written alongside.
+    let mut drop = splash::Splash::new();
+    let clouds: Vec<Vec<Vec3>> = (0..36)
+        .map(|_| {
+            let cloud = drop.positions().to_vec();
+            drop.advance(1.0 / 24.0);
+            cloud
+        })
+        .collect();
+    let radius = splash::SPACING;
+    let h = 2.0 * radius;
+    let iso = iso_for_radius(radius, h);
+    let liquid = physics(48.0, 0.0003);
+    let density = |frame: i64| Density::new(clouds[frame as usize - 1].clone(), h, iso);
+    let skin = AnySkin::new(&density(1), liquid.params(0.5 * radius)?);
+    std::fs::create_dir_all(args.out.join("splash"))?;
+    for (frame, cloud) in (1..).zip(&clouds) {
+        let path = args.out.join(format!("splash/particles.{frame:04}.ply"));
+        particles::write_ply(&path, cloud)?;
+    }
+    let out = outputs(&args.out, "splash", args.quiet);
+    run_frames((1, clouds.len() as i64), skin, liquid.fps, &out, |frame| {
+        Ok(Box::new(density(frame)) as Box<dyn Target>)
+    })?;
+
     let shown = args.out.display();
-    println!("wrote {shown}/fig7/fig7.####.{{vdb,obj,exr}} and {shown}/orbit/orbit.####.{{vdb,obj,exr}}, with stats.jsonl in each");
+    println!("wrote {shown}/fig7/fig7.####.{{vdb,obj,exr}}, {shown}/orbit/orbit.####.{{vdb,obj,exr}} and {shown}/splash/splash.####.{{vdb,obj,exr}} (its particles in splash/particles.####.ply), with stats.jsonl in each");
     println!("look at them: Houdini File SOP on {shown}/fig7/fig7.$F4.vdb, Blender Import > OpenVDB (sequence)");
     Ok(())
 }

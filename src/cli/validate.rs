@@ -49,21 +49,26 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<()> {
             if row.passes() { "" } else { "  FAIL" }
         );
     }
-    println!(
-        "checkLevelSet: {}",
-        if report.check.is_empty() {
-            "valid"
-        } else {
-            &report.check
-        }
-    );
+    match (report.check.is_empty(), report.exact_flagged) {
+        (true, _) => println!("checkLevelSet: valid"),
+        (false, Some(exact)) => println!(
+            "checkLevelSet: {}; on meshToLevelSet of the same surface: {exact} voxels{}",
+            report.check,
+            if report.check_passes() {
+                " (thin features: no worse, accepted)"
+            } else {
+                "  FAIL"
+            }
+        ),
+        (false, None) => println!("checkLevelSet: {}  FAIL", report.check),
+    }
     if !report.passes() {
         let failed: Vec<&str> = report
             .rows
             .iter()
             .filter(|r| !r.passes())
             .map(|r| r.name)
-            .chain((!report.check.is_empty()).then_some("checkLevelSet"))
+            .chain((!report.check_passes()).then_some("checkLevelSet"))
             .collect();
         bail!(
             "{}: out of tolerance: {}",
