@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
+pub mod flicker;
 pub mod splash;
 
 /// A particle frame that cannot be read.

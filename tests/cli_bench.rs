@@ -20,6 +20,7 @@ fn bench_reports_every_ratio() {
         ("memory", "ratio_fixed16"),
         ("scaling", "exponent"),
         ("scaling", "speedup_over_1_thread"),
+        ("flicker", "gain"),
     ] {
         let v = report[section][key].as_f64();
         assert!(
@@ -46,6 +47,8 @@ fn bench_reports_every_ratio() {
         );
     }
     assert!(races[2]["beta"].as_f64().unwrap() > 0.0);
+    // Flicker is deterministic: the goal (3× less than per-frame surfacing) is asserted.
+    assert!(report["flicker"]["gain"].as_f64().unwrap() >= 3.0, "{report}");
     // Cost grows with the area (exponent 2), far from the volume's 3.
     let exponent = report["scaling"]["exponent"].as_f64().unwrap();
     assert!((1.6..2.6).contains(&exponent), "{exponent}");

@@ -237,6 +237,18 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     }
     report.insert("morph_to_accuracy".into(), json!(races));
 
+    // Temporal quality on a jittered static cloud: the skin against per-frame surfacing.
+    let f = activeskin::particles::flicker::jittered_ball(0.05, 0.3, 16, 4.0);
+    report.insert(
+        "flicker".into(),
+        json!({"skin_voxels": f.skin, "per_frame_voxels": f.per_frame, "gain": f.per_frame / f.skin,
+               "skin_error_voxels": f.skin_error, "per_frame_error_voxels": f.per_frame_error}),
+    );
+    lines.push(format!(
+        "flicker, jittered static cloud   skin {:.3} voxel/frame   per-frame surfacing {:.3}   {:.1}× less (error {:.3} vs {:.3} voxel)",
+        f.skin, f.per_frame, f.per_frame / f.skin, f.skin_error, f.per_frame_error
+    ));
+
     if args.particles {
         let mut rows = Vec::new();
         for n in [100_000usize, 1_000_000] {
