@@ -1,5 +1,12 @@
 //! The `activeskin` command line. `anyhow` lives here only; the library has typed errors.
 
+/// Returns a [`Usage`] error: the command line itself is wrong (exit code 2).
+macro_rules! usage {
+    ($($arg:tt)*) => {
+        return Err(anyhow::Error::new($crate::cli::Usage(format!($($arg)*))))
+    };
+}
+
 mod bench;
 mod demo;
 mod info;
@@ -54,7 +61,23 @@ enum Command {
     Mesh(mesh::MeshArgs),
 }
 
-/// Runs the command line; exit code 0 on success, 1 on bad data, 2 on bad usage (clap).
+/// A mistake in the command line itself: a bad option value, a pattern without a frame
+/// number or matching no file, an empty frame range. Exit code 2, as clap's own.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct Usage(pub String);
+
+/// Turns any error about an argument into a [`Usage`] error.
+pub fn bad_usage(e: impl std::fmt::Display) -> anyhow::Error {
+    anyhow::Error::new(Usage(e.to_string()))
+}
+
+/// A frame pattern given on the command line.
+pub fn pattern_arg(spec: &str) -> anyhow::Result<activeskin::sequence::FramePattern> {
+    activeskin::sequence::FramePattern::parse(spec).map_err(bad_usage)
+}
+
+/// Runs the command line; exit code 0 on success, 1 on bad data, 2 on bad usage.
 pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -72,7 +95,11 @@ pub fn run() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("activeskin: error: {e:#}");
-            ExitCode::from(1)
+            ExitCode::from(if e.downcast_ref::<Usage>().is_some() {
+                2
+            } else {
+                1
+            })
         }
     }
 }

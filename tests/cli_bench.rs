@@ -48,7 +48,10 @@ fn bench_reports_every_ratio() {
     }
     assert!(races[2]["beta"].as_f64().unwrap() > 0.0);
     // Flicker is deterministic: the goal (3× less than per-frame surfacing) is asserted.
-    assert!(report["flicker"]["gain"].as_f64().unwrap() >= 3.0, "{report}");
+    assert!(
+        report["flicker"]["gain"].as_f64().unwrap() >= 3.0,
+        "{report}"
+    );
     // Cost grows with the area (exponent 2), far from the volume's 3.
     let exponent = report["scaling"]["exponent"].as_f64().unwrap();
     assert!((1.6..2.6).contains(&exponent), "{exponent}");

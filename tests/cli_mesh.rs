@@ -117,7 +117,7 @@ fn fog_volumes_need_iso() {
     let output = dir.path().join("fog.ply");
     let (i, o) = (input.to_str().unwrap(), output.to_str().unwrap());
     let result = activeskin(&["mesh", i, o]);
-    assert_eq!(result.status.code(), Some(1));
+    assert_eq!(result.status.code(), Some(2));
     let err = String::from_utf8_lossy(&result.stderr);
     assert!(err.contains("--iso") && err.contains("fog.vdb"), "{err}");
     assert!(!output.exists());

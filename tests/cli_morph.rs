@@ -61,29 +61,34 @@ fn bad_morph_arguments_are_one_line_errors() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.####.vdb");
     let out = out.to_str().unwrap();
-    for (args, expect) in [
+    // Exit 2 for a bad command line, 1 for a file that cannot be read.
+    for (args, expect, code) in [
         (
             vec!["--from", "cube:a=1", "--to", "sphere"],
             "not a .vdb file",
+            2,
         ),
         (
             vec!["--from", "sphere:r=x", "--to", "sphere"],
             "not a number",
+            2,
         ),
         (
             vec!["--from", "sphere", "--to", "missing.vdb"],
             "no such file",
+            1,
         ),
         (
             vec!["--from", "sphere", "--to", "sphere", "--frames", "9-1"],
             "FIRST <= LAST",
+            2,
         ),
     ] {
         let mut all = vec!["morph", "--out", out];
         all.extend(args);
         let result = activeskin(&all);
         let stderr = String::from_utf8_lossy(&result.stderr);
-        assert_eq!(result.status.code(), Some(1), "{stderr}");
+        assert_eq!(result.status.code(), Some(code), "{stderr}");
         assert_eq!(stderr.lines().count(), 1, "{stderr}");
         assert!(stderr.contains(expect), "expected '{expect}': {stderr}");
     }

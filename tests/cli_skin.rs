@@ -32,10 +32,19 @@ fn assert_ok(out: &Output) {
     assert!(out.status.success(), "{}", stderr(out));
 }
 
-/// Exit 1, one line naming `file`, no panic.
+/// Exit 1 (bad data), one line naming `file`, no panic.
 fn assert_one_line_error(out: &Output, file: &str) {
+    assert_fails_with(out, 1, file);
+}
+
+/// Exit 2 (bad usage), one line naming `what`, no panic.
+fn assert_usage_error(out: &Output, what: &str) {
+    assert_fails_with(out, 2, what);
+}
+
+fn assert_fails_with(out: &Output, code: i32, file: &str) {
     let err = stderr(out);
-    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(out.status.code(), Some(code), "{err}");
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     assert!(err.contains(file), "error does not name {file}: {err}");
     assert!(!err.contains("panicked"), "{err}");
@@ -371,10 +380,12 @@ fn bad_usage_and_unusable_grids_are_one_line_errors() {
 
     let nothing = dir.path().join("nothing.####.vdb");
     let result = activeskin(&skin_args(nothing.to_str().unwrap(), out, &[]));
-    assert_one_line_error(&result, "nothing.####.vdb");
+    assert_usage_error(&result, "nothing.####.vdb");
 
     let result = activeskin(&["skin", "--target", &target, "--alpha=-1", "--out", out]);
-    assert_one_line_error(&result, "--alpha");
+    assert_usage_error(&result, "--alpha");
+    let result = activeskin(&skin_args(&target, out, &["--frames", "5-2"]));
+    assert_usage_error(&result, "--frames");
 
     // A fog volume (density 1 inside) needs --iso; with it, the skin runs.
     let fog_dir = dir.path().join("fog");
@@ -392,7 +403,7 @@ fn bad_usage_and_unusable_grids_are_one_line_errors() {
     let fog_target = fog_dir.join("fog.####.vdb");
     let fog_target = fog_target.to_str().unwrap();
     let result = activeskin(&skin_args(fog_target, out, &[]));
-    assert_one_line_error(&result, "fog.0001.vdb");
+    assert_usage_error(&result, "fog.0001.vdb");
     assert!(stderr(&result).contains("--iso"));
     let mesh = dir.path().join("fog_out/fog.####.ply");
     let result = activeskin(&[

@@ -5,7 +5,6 @@ use std::path::PathBuf;
 
 use activeskin::polygonize::mesh_vdb;
 use activeskin::vdb::{Grid, GridClass};
-use anyhow::bail;
 
 use super::skin::check_usable;
 
@@ -30,9 +29,9 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
     // Only signs and linear interpolation matter to the polygonizer: scale into [-1, 1].
     let (iso, sign) = match (data.class, args.iso) {
         (_, Some(iso)) if iso.is_finite() => (iso, -1.0f32),
-        (_, Some(iso)) => bail!("--iso must be a number, got {iso}"),
+        (_, Some(iso)) => usage!("--iso must be a number, got {iso}"),
         (GridClass::LevelSet, None) => (0.0, 1.0),
-        (_, None) => bail!(
+        (_, None) => usage!(
             "{}: grid '{}' is not a level set: give --iso, the density of its surface",
             path.display(),
             data.name

@@ -5,9 +5,9 @@ use std::path::Path;
 
 use activeskin::skin::AnySkin;
 use activeskin::target::{Blobs, Sphere, Target, Torus, Union};
-use anyhow::{bail, Context};
 use glam::Vec3;
 
+use super::bad_usage;
 use super::outputs::{OutputArgs, PhysicsArgs};
 use super::skin::{parse_frames, read_target, run_frames};
 
@@ -36,11 +36,11 @@ fn shape(spec: &str) -> anyhow::Result<(Box<dyn Target>, Option<f32>)> {
         for pair in args.split(',').filter(|p| !p.is_empty()) {
             let (k, v) = pair
                 .split_once('=')
-                .with_context(|| format!("'{spec}': expected key=value, got '{pair}'"))?;
+                .ok_or_else(|| bad_usage(format!("'{spec}': expected key=value, got '{pair}'")))?;
             if k == key {
                 return v
                     .parse()
-                    .with_context(|| format!("'{spec}': '{v}' is not a number"));
+                    .map_err(|_| bad_usage(format!("'{spec}': '{v}' is not a number")));
             }
         }
         Ok(default)
@@ -62,7 +62,7 @@ fn shape(spec: &str) -> anyhow::Result<(Box<dyn Target>, Option<f32>)> {
             let (target, dx) = read_target(Path::new(spec), None, None)?;
             return Ok((target, Some(dx)));
         }
-        _ => bail!("'{spec}': not a .vdb file or a built-in shape (sphere:r=R, torus:R=A,r=B, blobs:fig7, blobs:fig6, spheres:fig7)"),
+        _ => usage!("'{spec}': not a .vdb file or a built-in shape (sphere:r=R, torus:R=A,r=B, blobs:fig7, blobs:fig6, spheres:fig7)"),
     };
     Ok((target, None))
 }

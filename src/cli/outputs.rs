@@ -11,9 +11,10 @@ use activeskin::sequence::FramePattern;
 use activeskin::skin::{AnySkin, SkinParams, SpeedParams, StepStats};
 use activeskin::target::{Aabb, LevelSetTarget, Target};
 use activeskin::vdb::{self, FileMetadata, Grid, GridData, WriteOptions};
-use anyhow::{bail, Context};
+use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use super::pattern_arg;
 use super::render::parse_size;
 
 /// The skin's physical and numerical options.
@@ -52,7 +53,7 @@ impl PhysicsArgs {
     /// Checked parameters for a skin of voxel size `dx`.
     pub fn params(&self, default_dx: f32) -> anyhow::Result<SkinParams> {
         if !self.fps.is_finite() || self.fps <= 0.0 {
-            bail!("--fps must be a positive number");
+            usage!("--fps must be a positive number");
         }
         for (name, v) in [
             ("--alpha", self.alpha),
@@ -62,12 +63,12 @@ impl PhysicsArgs {
         ] {
             // Rejects NaN as well as negatives.
             if !(v.is_finite() && v >= 0.0) {
-                bail!("{name} must be a non-negative number, got {v}");
+                usage!("{name} must be a non-negative number, got {v}");
             }
         }
         let dx = self.voxel_size.unwrap_or(default_dx);
         if !(dx.is_finite() && dx > 0.0) {
-            bail!("--voxel-size must be a positive number, got {dx}");
+            usage!("--voxel-size must be a positive number, got {dx}");
         }
         Ok(SkinParams {
             dx,
@@ -127,13 +128,13 @@ pub struct Outputs {
 
 impl Outputs {
     pub fn new(args: &OutputArgs, frames: u64) -> anyhow::Result<Self> {
-        let out = args.out.as_deref().map(FramePattern::parse).transpose()?;
-        let mesh = args.mesh.as_deref().map(FramePattern::parse).transpose()?;
+        let out = args.out.as_deref().map(pattern_arg).transpose()?;
+        let mesh = args.mesh.as_deref().map(pattern_arg).transpose()?;
         if let Some(mesh) = &mesh {
             let name = mesh.path(0);
             let ext = name.extension().and_then(|e| e.to_str()).unwrap_or("");
             if !ext.eq_ignore_ascii_case("obj") && !ext.eq_ignore_ascii_case("ply") {
-                bail!(
+                usage!(
                     "--mesh '{}': meshes must end in .obj or .ply",
                     name.display()
                 );
@@ -141,11 +142,11 @@ impl Outputs {
         }
         let render = match &args.render {
             Some(spec) => {
-                let pattern = FramePattern::parse(spec)?;
+                let pattern = pattern_arg(spec)?;
                 let name = pattern.path(0);
                 let ext = name.extension().and_then(|e| e.to_str()).unwrap_or("");
                 if !ext.eq_ignore_ascii_case("exr") && !ext.eq_ignore_ascii_case("png") {
-                    bail!(
+                    usage!(
                         "--render '{}': renders must end in .exr or .png",
                         name.display()
                     );
@@ -155,10 +156,10 @@ impl Outputs {
             None => None,
         };
         if out.is_none() && mesh.is_none() && render.is_none() && args.stats.is_none() {
-            bail!("nothing to write: give --out, --mesh, --render or --stats");
+            usage!("nothing to write: give --out, --mesh, --render or --stats");
         }
         if args.resume && out.is_none() {
-            bail!("--resume needs --out: it continues from the last skin VDB written there");
+            usage!("--resume needs --out: it continues from the last skin VDB written there");
         }
         for pattern in out.iter().chain(&mesh).chain(render.iter().map(|r| &r.0)) {
             let folder = pattern.folder();

@@ -2,13 +2,13 @@
 //! particle sequence (paper §6.1), through the same frame loop and outputs as `skin`.
 
 use activeskin::particles;
-use activeskin::sequence::FramePattern;
 use activeskin::skin::AnySkin;
 use activeskin::target::{iso_for_radius, Density, Target};
 use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
 use anyhow::{bail, Context};
 
 use super::outputs::{OutputArgs, PhysicsArgs};
+use super::pattern_arg;
 use super::skin::{input_frames, run_frames, InputFrames};
 
 #[derive(clap::Args)]
@@ -38,12 +38,12 @@ pub struct ParticlesArgs {
 
 pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     if !(args.radius.is_finite() && args.radius > 0.0) {
-        bail!("--radius must be a positive number, got {}", args.radius);
+        usage!("--radius must be a positive number, got {}", args.radius);
     }
     let h = 2.0 * args.radius;
     let iso = args.iso.unwrap_or_else(|| iso_for_radius(args.radius, h));
     if !(iso.is_finite() && iso > 0.0) {
-        bail!("--iso must be a positive number, got {iso}");
+        usage!("--iso must be a positive number, got {iso}");
     }
     let InputFrames {
         pattern,
@@ -53,7 +53,7 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     let params = args.physics.params(0.5 * args.radius)?;
     let density_out = match &args.density_out {
         Some(spec) => {
-            let out = FramePattern::parse(spec)?;
+            let out = pattern_arg(spec)?;
             let folder = out.folder();
             std::fs::create_dir_all(&folder).with_context(|| {
                 format!("{}: cannot create the output folder", folder.display())

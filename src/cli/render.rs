@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use activeskin::render::{self, View};
-use anyhow::{bail, Context};
+use anyhow::Context;
 
 use super::skin::read_target;
 
@@ -53,7 +53,7 @@ pub fn parse_size(spec: &str) -> anyhow::Result<(usize, usize)> {
         .and_then(|(w, h)| Some((w.trim().parse().ok()?, h.trim().parse().ok()?)));
     match parsed {
         Some((w, h)) if (1..=16384).contains(&w) && (1..=16384).contains(&h) => Ok((w, h)),
-        _ => bail!("--size '{spec}': expected WIDTHxHEIGHT, each 1 to 16384"),
+        _ => usage!("--size '{spec}': expected WIDTHxHEIGHT, each 1 to 16384"),
     }
 }
 

@@ -11,6 +11,7 @@ use activeskin::vdb::{Grid, GridClass, GridData};
 use anyhow::{bail, Context};
 
 use super::outputs::{OutputArgs, Outputs, PhysicsArgs};
+use super::{bad_usage, pattern_arg};
 
 #[derive(clap::Args)]
 pub struct SkinArgs {
@@ -50,8 +51,8 @@ pub fn read_target(
     let target: Box<dyn Target> = match (data.class, iso) {
         (GridClass::LevelSet, _) => Box::new(LevelSetTarget::new(&data)),
         (_, Some(iso)) if iso.is_finite() => Box::new(FogTarget::new(&data, iso)),
-        (_, Some(iso)) => bail!("--iso must be a number, got {iso}"),
-        (_, None) => bail!(
+        (_, Some(iso)) => usage!("--iso must be a number, got {iso}"),
+        (_, None) => usage!(
             "{}: grid '{}' is not a level set: give --iso, the density of its surface",
             path.display(),
             data.name
@@ -92,8 +93,11 @@ pub fn check_usable(path: &Path, data: &GridData) -> anyhow::Result<()> {
 
 /// `--frames` as every command reads it.
 pub fn parse_frames(spec: &str) -> anyhow::Result<(i64, i64)> {
-    parse_range(spec)
-        .with_context(|| format!("--frames '{spec}': expected FIRST-LAST with FIRST <= LAST"))
+    parse_range(spec).ok_or_else(|| {
+        bad_usage(format!(
+            "--frames '{spec}': expected FIRST-LAST with FIRST <= LAST"
+        ))
+    })
 }
 
 /// An input sequence: its pattern, the frames found on disk (sorted), the range to run.
@@ -106,13 +110,13 @@ pub struct InputFrames {
 /// Reads the sequence given as `flag` (e.g. `--target`); the range is `frames`, or every
 /// frame found.
 pub fn input_frames(flag: &str, spec: &str, frames: Option<&str>) -> anyhow::Result<InputFrames> {
-    let pattern = FramePattern::parse(spec)?;
+    let pattern = pattern_arg(spec)?;
     let existing = pattern.existing_frames()?;
     let range = match frames {
         Some(frames) => parse_frames(frames)?,
         None => match (existing.first(), existing.last()) {
             (Some(&a), Some(&b)) => (a, b),
-            _ => bail!("no file matches {flag} '{spec}'"),
+            _ => usage!("no file matches {flag} '{spec}'"),
         },
     };
     Ok(InputFrames {
