@@ -4,7 +4,7 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all deps build demo test bench lint clean
+.PHONY: all deps build demo test bench lint soak fuzz clean
 
 all: build
 
@@ -18,7 +18,7 @@ demo: build
 	@mkdir -p $(OUT)
 	./target/release/activeskin demo --out $(OUT)
 	./target/release/activeskin info $(OUT)/fig7/fig7.0048.vdb
-	@echo "demo: Fig. 7 morph (six blobs to two spheres) in ./$(OUT): fig7.####.vdb and fig7.####.obj"
+	@echo "demo: in ./$(OUT): fig7/ (six blobs to two spheres), orbit/ (a moving target), splash/ (a drop of particles): VDB, OBJ, EXR, stats"
 
 bench: deps
 	$(CARGO) bench --bench step
@@ -27,6 +27,18 @@ bench: deps
 test: deps
 	$(CARGO) test --release
 	$(MAKE) lint
+
+# 10 000 solver steps against ever-changing targets (about a minute).
+soak: deps
+	$(CARGO) test --release --test soak -- --ignored --nocapture
+
+# cargo fuzz (nightly) of the frame-pattern parser and the particle-file readers,
+# FUZZ_SECONDS each; crashes land in fuzz/artifacts.
+FUZZ_SECONDS ?= 600
+fuzz: deps
+	@command -v cargo-fuzz >/dev/null || $(CARGO) install cargo-fuzz
+	cd fuzz && $(CARGO) +nightly fuzz run -O frame_pattern -- -max_total_time=$(FUZZ_SECONDS) -max_len=256
+	cd fuzz && mkdir -p corpus/particle_files && $(CARGO) +nightly fuzz run -O particle_files corpus/particle_files seeds/particle_files -- -max_total_time=$(FUZZ_SECONDS) -max_len=4096
 
 lint:
 	$(CARGO) fmt --all -- --check

@@ -227,7 +227,7 @@ impl<P: Potential> SparseGrid<P> {
         if self.blocks.len() == self.blocks.capacity() {
             // Grow by 1/16 rather than doubling: a block is 1–2 KB and the band moves by a
             // few blocks per step, so memory stays within a few percent of what is used.
-            self.blocks.reserve_exact(self.blocks.len() / 16 + 64);
+            self.blocks.reserve_exact(self.blocks.len() / 16 + 16);
         }
         self.blocks.push(Block::filled(coord, value));
         self.index.insert(coord, id);
@@ -262,9 +262,9 @@ impl<P: Potential> SparseGrid<P> {
                 i += 1;
             }
         }
-        // Give back what a shrinking skin no longer needs (growth adds len/16 + 64).
+        // Give back what a shrinking skin no longer needs (growth adds len/16 + 16).
         let len = self.blocks.len();
-        if self.blocks.capacity() > len + len / 16 + 64 {
+        if self.blocks.capacity() > len + len / 16 + 16 {
             self.blocks.shrink_to(len + len / 64);
         }
     }

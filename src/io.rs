@@ -25,3 +25,25 @@ where
     }
     result
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An injected failing writer (a disk that fills up half-way): the earlier file
+    /// stays as it was and no temporary is left.
+    #[test]
+    fn a_writer_failing_half_way_leaves_the_earlier_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("frame.0001.vdb");
+        std::fs::write(&path, b"the earlier, whole frame").unwrap();
+        let result = write_atomically(&path, |tmp| {
+            std::fs::write(tmp, b"half a fr").map_err(|e| e.to_string())?;
+            Err("No space left on device (os error 28)".into())
+        });
+        assert_eq!(result.unwrap_err(), "No space left on device (os error 28)");
+        assert_eq!(std::fs::read(&path).unwrap(), b"the earlier, whole frame");
+        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+        assert_eq!(names.len(), 1, "a temporary file was left");
+    }
+}

@@ -25,6 +25,14 @@ pub struct Particles {
     pub radii: Option<Vec<f32>>,
 }
 
+/// A particle file format read from bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    Ply,
+    /// `x y z [radius]` per line, spaces or commas, optional header.
+    Text,
+}
+
 /// Reads a frame by extension: `.ply`, `.vdb` (the first point data grid), or `.xyz` /
 /// `.csv` / `.txt`.
 pub fn read(path: &Path) -> Result<Particles, ParticleError> {
@@ -36,31 +44,41 @@ pub fn read(path: &Path) -> Result<Particles, ParticleError> {
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    let particles = if ext.as_deref() == Some("vdb") {
+    if ext.as_deref() == Some("vdb") {
         // The VDB reader names the file in its own errors.
-        read_vdb(path).map_err(|e| ParticleError {
-            path: path.to_path_buf(),
-            message: e.reason(),
-        })?
-    } else {
-        let bytes = std::fs::read(path).map_err(|e| error(e.to_string()))?;
-        match ext.as_deref() {
-            Some("ply") => read_ply(&bytes),
-            Some("xyz" | "csv" | "txt") => read_text(&bytes),
-            _ => Err("particle files must end in .ply, .vdb, .xyz, .csv or .txt".into()),
+        let particles = read_vdb(path).map_err(|e| error(e.reason()))?;
+        return check(particles).map_err(error);
+    }
+    let format = match ext.as_deref() {
+        Some("ply") => Format::Ply,
+        Some("xyz" | "csv" | "txt") => Format::Text,
+        _ => {
+            return Err(error(
+                "particle files must end in .ply, .vdb, .xyz, .csv or .txt".into(),
+            ))
         }
-        .map_err(error)?
     };
+    let bytes = std::fs::read(path).map_err(|e| error(e.to_string()))?;
+    parse(&bytes, format).map_err(error)
+}
+
+/// Parses a frame's bytes: positions finite, radii (when given) positive.
+pub fn parse(bytes: &[u8], format: Format) -> Result<Particles, String> {
+    check(match format {
+        Format::Ply => read_ply(bytes)?,
+        Format::Text => read_text(bytes)?,
+    })
+}
+
+fn check(particles: Particles) -> Result<Particles, String> {
     if let Some(i) = particles.positions.iter().position(|p| !p.is_finite()) {
-        return Err(error(format!(
-            "particle {i} has a NaN or infinite coordinate"
-        )));
+        return Err(format!("particle {i} has a NaN or infinite coordinate"));
     }
     if let Some(radii) = &particles.radii {
         if let Some(i) = radii.iter().position(|r| !(r.is_finite() && *r > 0.0)) {
-            return Err(error(format!(
+            return Err(format!(
                 "particle {i} has a radius that is not a positive number"
-            )));
+            ));
         }
     }
     Ok(particles)
@@ -144,8 +162,9 @@ fn read_text(bytes: &[u8]) -> Result<Particles, String> {
 /// A PLY element: name, count, properties (name, type).
 type Element = (String, usize, Vec<(String, String)>);
 
+/// How a PLY file stores its rows.
 #[derive(Clone, Copy, PartialEq)]
-enum Format {
+enum Encoding {
     Ascii,
     Little,
     Big,
@@ -187,9 +206,9 @@ fn read_ply(bytes: &[u8]) -> Result<Particles, String> {
         match words.as_slice() {
             ["format", f, _] => {
                 format = Some(match *f {
-                    "ascii" => Format::Ascii,
-                    "binary_little_endian" => Format::Little,
-                    "binary_big_endian" => Format::Big,
+                    "ascii" => Encoding::Ascii,
+                    "binary_little_endian" => Encoding::Little,
+                    "binary_big_endian" => Encoding::Big,
                     other => return Err(format!("unknown PLY format '{other}'")),
                 })
             }
@@ -246,7 +265,7 @@ fn read_ply(bytes: &[u8]) -> Result<Particles, String> {
     };
     let data = &bytes[body.min(bytes.len())..];
     match format {
-        Format::Ascii => {
+        Encoding::Ascii => {
             let text = std::str::from_utf8(data).map_err(|_| "PLY body is not text")?;
             let mut rows = text.lines().filter(|l| !l.trim().is_empty());
             for i in 0..*count {
@@ -265,7 +284,7 @@ fn read_ply(bytes: &[u8]) -> Result<Particles, String> {
                 push(&row);
             }
         }
-        Format::Little | Format::Big => {
+        Encoding::Little | Encoding::Big => {
             let sizes: Vec<usize> = properties
                 .iter()
                 .map(|p| type_size(&p.1).unwrap_or(0))
@@ -283,7 +302,7 @@ fn read_ply(bytes: &[u8]) -> Result<Particles, String> {
                 let mut at = v * stride;
                 for (k, (_, ty)) in properties.iter().enumerate() {
                     let raw = &data[at..at + sizes[k]];
-                    row[k] = scalar(ty, raw, format == Format::Little);
+                    row[k] = scalar(ty, raw, format == Encoding::Little);
                     at += sizes[k];
                 }
                 push(&row);

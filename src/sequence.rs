@@ -11,9 +11,14 @@ pub enum PatternError {
     NoFrameNumber(String),
     #[error("pattern '{0}' has more than one frame number")]
     SeveralFrameNumbers(String),
+    #[error("pattern '{0}' pads frame numbers to more than {MAX_WIDTH} digits")]
+    TooWide(String),
     #[error("cannot list the folder of pattern '{pattern}': {reason}")]
     Unreadable { pattern: String, reason: String },
 }
+
+/// The widest padding a pattern may ask for: an i64 has 19 digits.
+pub const MAX_WIDTH: usize = 20;
 
 /// A file name with one frame-number field.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -29,7 +34,12 @@ impl FramePattern {
         let fields = frame_fields(pattern);
         match fields.as_slice() {
             [] => Err(PatternError::NoFrameNumber(pattern.to_owned())),
-            [(start, end, width)] => Ok(FramePattern {
+            // Unparsable digits (too many for usize) count as too wide, not as unpadded.
+            [(_, _, None)] => Err(PatternError::TooWide(pattern.to_owned())),
+            [(_, _, Some(width))] if *width > MAX_WIDTH => {
+                Err(PatternError::TooWide(pattern.to_owned()))
+            }
+            [(start, end, Some(width))] => Ok(FramePattern {
                 prefix: pattern[..*start].to_owned(),
                 suffix: pattern[*end..].to_owned(),
                 width: *width,
@@ -42,7 +52,8 @@ impl FramePattern {
     pub fn path(&self, frame: i64) -> PathBuf {
         let width = self.width;
         let number = if frame < 0 {
-            format!("-{:0width$}", -frame)
+            // unsigned_abs: -i64::MIN does not fit in an i64 (found by cargo fuzz).
+            format!("-{:0width$}", frame.unsigned_abs())
         } else {
             format!("{frame:0width$}")
         };
@@ -100,8 +111,9 @@ impl FramePattern {
     }
 }
 
-/// Byte ranges and widths of the frame fields of a pattern.
-fn frame_fields(pattern: &str) -> Vec<(usize, usize, usize)> {
+/// Byte ranges and widths of the frame fields of a pattern (`None`: digits that do not
+/// fit a usize).
+fn frame_fields(pattern: &str) -> Vec<(usize, usize, Option<usize>)> {
     let bytes = pattern.as_bytes();
     let mut fields = Vec::new();
     let mut i = 0;
@@ -113,14 +125,19 @@ fn frame_fields(pattern: &str) -> Vec<(usize, usize, usize)> {
         match bytes[i] {
             b'#' => {
                 let n = bytes[i..].iter().take_while(|&&b| b == b'#').count();
-                fields.push((i, i + n, n));
+                fields.push((i, i + n, Some(n)));
                 i += n;
             }
             b'%' => {
                 // %d, %4d, %04d
                 let (n, width) = digits_from(i + 1);
                 if bytes.get(i + 1 + n) == Some(&b'd') {
-                    fields.push((i, i + n + 2, width.unwrap_or(1).max(1)));
+                    let width = if n == 0 {
+                        Some(1)
+                    } else {
+                        width.map(|w| w.max(1))
+                    };
+                    fields.push((i, i + n + 2, width));
                     i += n + 2;
                 } else {
                     i += 1;
@@ -128,7 +145,12 @@ fn frame_fields(pattern: &str) -> Vec<(usize, usize, usize)> {
             }
             b'$' if bytes.get(i + 1) == Some(&b'F') => {
                 let (n, width) = digits_from(i + 2);
-                fields.push((i, i + 2 + n, width.unwrap_or(1).max(1)));
+                let width = if n == 0 {
+                    Some(1)
+                } else {
+                    width.map(|w| w.max(1))
+                };
+                fields.push((i, i + 2 + n, width));
                 i += 2 + n;
             }
             _ => i += 1,
@@ -140,8 +162,10 @@ fn frame_fields(pattern: &str) -> Vec<(usize, usize, usize)> {
 /// `A-B` (inclusive), or a single frame `A`.
 pub fn parse_range(spec: &str) -> Option<(i64, i64)> {
     let spec = spec.trim();
-    // A leading '-' is a negative first frame, not the separator.
-    let split = spec[1.min(spec.len())..].find('-').map(|i| i + 1);
+    // A leading '-' is a negative first frame, not the separator. (Search from the second
+    // character, not byte: `--frames` may hold anything.)
+    let skip = spec.chars().next().map_or(0, char::len_utf8);
+    let split = spec[skip..].find('-').map(|i| i + skip);
     let (a, b) = match split {
         Some(i) => (
             spec[..i].trim().parse().ok()?,
@@ -158,6 +182,34 @@ pub fn parse_range(spec: &str) -> Option<(i64, i64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn absurd_padding_is_an_error() {
+        // Found by cargo fuzz: a width past what format! accepts panicked.
+        for spec in [
+            "x.%99999999999d.vdb",
+            "x.%999999999999999999999999d",
+            "x.$F21",
+        ] {
+            assert_eq!(
+                FramePattern::parse(spec),
+                Err(PatternError::TooWide(spec.into())),
+                "{spec}"
+            );
+        }
+        assert!(FramePattern::parse(&format!("x.{}.vdb", "#".repeat(70_000))).is_err());
+        assert!(FramePattern::parse("x.$F20").is_ok());
+    }
+
+    #[test]
+    fn extreme_frames_round_trip() {
+        // Found by cargo fuzz: i64::MIN was written with two minus signs.
+        let pattern = FramePattern::parse("#\u{b}$:").unwrap();
+        for frame in [i64::MIN, i64::MIN + 1, -1, 0, i64::MAX] {
+            let path = pattern.path(frame);
+            assert_eq!(pattern.frame_of(path.to_str().unwrap()), Some(frame));
+        }
+    }
 
     #[test]
     fn every_spelling_formats_like_its_dcc() {
@@ -212,6 +264,10 @@ mod tests {
         assert_eq!(parse_range("9-3"), None);
         assert_eq!(parse_range("a-b"), None);
         assert_eq!(parse_range(""), None);
+        assert_eq!(parse_range("-5--2"), Some((-5, -2)));
+        // Found by cargo fuzz: a multi-byte first character was sliced through.
+        assert_eq!(parse_range("\u{532}\u{f}"), None);
+        assert_eq!(parse_range("Բ-1"), None);
     }
 
     #[test]

@@ -363,9 +363,22 @@ pub fn write_grids(
     crate::io::write_atomically(path, |tmp| {
         writer
             .write(&tmp.to_string_lossy(), metadata)
-            .map_err(|e| e.what().to_string())
+            .map_err(|e| e.what().to_string())?;
+        verify_written(tmp)
     })
     .map_err(|message| VdbError::file(path, message))
+}
+
+/// OpenVDB writes through a std::ofstream whose failures it does not check: on a full
+/// disk it leaves a short file and reports success. So the file is flushed to disk and
+/// its layout walked before it may take its final name.
+fn verify_written(tmp: &Path) -> Result<(), String> {
+    let file = std::fs::File::open(tmp).map_err(|e| e.to_string())?;
+    file.sync_all().map_err(|e| e.to_string())?;
+    let length = file.metadata().map_err(|e| e.to_string())?.len();
+    layout::check(std::io::BufReader::new(file), length).map(drop).map_err(|reason| {
+        format!("the file came out incomplete ({length} bytes: {reason}); is the disk out of space?")
+    })
 }
 
 /// Positions (world space) and `pscale` radii of a point data grid, as Houdini's VDB from
@@ -394,7 +407,8 @@ pub fn write_points(
             voxel_size,
             name,
         )
-        .map_err(|e| e.what().to_string())
+        .map_err(|e| e.what().to_string())?;
+        verify_written(tmp)
     })
     .map_err(|message| VdbError::file(path, message))
 }
