@@ -225,9 +225,9 @@ impl<P: Potential> SparseGrid<P> {
         self.inside.remove(&coord);
         let id = BlockId(self.blocks.len() as u32);
         if self.blocks.len() == self.blocks.capacity() {
-            // Grow by 1/16 rather than doubling: a block is 1–2 KB and the band moves by a
+            // Grow by 1/32 rather than doubling: a block is 1–2 KB and the band moves by a
             // few blocks per step, so memory stays within a few percent of what is used.
-            self.blocks.reserve_exact(self.blocks.len() / 16 + 16);
+            self.blocks.reserve_exact(self.blocks.len() / 32 + 16);
         }
         self.blocks.push(Block::filled(coord, value));
         self.index.insert(coord, id);
@@ -262,10 +262,10 @@ impl<P: Potential> SparseGrid<P> {
                 i += 1;
             }
         }
-        // Give back what a shrinking skin no longer needs (growth adds len/16 + 16).
+        // Give back what a shrinking skin no longer needs (growth adds len/32 + 16).
         let len = self.blocks.len();
-        if self.blocks.capacity() > len + len / 16 + 16 {
-            self.blocks.shrink_to(len + len / 64);
+        if self.blocks.capacity() > len + len / 32 + 16 {
+            self.blocks.shrink_to(len + len / 128);
         }
     }
 
