@@ -148,3 +148,62 @@ fn particles_command_skins_a_point_data_grid_sequence() {
         m.euler_characteristic
     );
 }
+
+#[test]
+fn particles_use_their_own_pscale_unless_told_not_to() {
+    let dir = tempfile::tempdir().unwrap();
+    let centres = [[1.0f32, 1.5, 1.5], [2.0, 1.5, 1.5]];
+    let radii = [0.1f32, 0.2];
+    for frame in 1..=2 {
+        let path = dir.path().join(format!("two.{frame:04}.vdb"));
+        vdb::write_points(&path, &centres, Some(&radii), 0.05, "points").unwrap();
+    }
+    // The mean distance of the skin's vertices to the nearer centre, for each centre.
+    let sizes = |extra: &[&str]| {
+        let out = dir.path().join("skin.####.obj");
+        let input = dir.path().join("two.####.vdb");
+        let mut args = vec![
+            "particles",
+            "--particles",
+            input.to_str().unwrap(),
+            "--radius",
+            "0.1",
+            "--voxel-size",
+            "0.025",
+            "--alpha",
+            "24",
+            "--mesh",
+            out.to_str().unwrap(),
+            "-q",
+        ];
+        args.extend_from_slice(extra);
+        let result = activeskin(&args);
+        assert!(
+            result.status.success(),
+            "{}",
+            String::from_utf8_lossy(&result.stderr)
+        );
+        let obj = std::fs::read_to_string(dir.path().join("skin.0002.obj")).unwrap();
+        let mut sums = [(0.0f32, 0usize); 2];
+        for line in obj.lines().filter_map(|l| l.strip_prefix("v ")) {
+            let v: Vec<f32> = line
+                .split_whitespace()
+                .map(|w| w.parse().unwrap())
+                .collect();
+            let p = Vec3::new(v[0], v[1], v[2]);
+            let k = usize::from(p.x > 1.5);
+            sums[k].0 += p.distance(Vec3::from_array(centres[k]));
+            sums[k].1 += 1;
+        }
+        sums.map(|(sum, n)| sum / n as f32)
+    };
+    let own = sizes(&[]);
+    for (size, radius) in own.iter().zip(radii) {
+        assert!((size - radius).abs() < 0.025, "{own:?}");
+    }
+    let uniform = sizes(&["--ignore-radii"]);
+    println!("skin radii: own pscale {own:?} (0.1, 0.2), --ignore-radii {uniform:?} (0.1, 0.1)");
+    for size in uniform {
+        assert!((size - 0.1).abs() < 0.025, "{uniform:?}");
+    }
+}

@@ -17,9 +17,14 @@ pub struct ParticlesArgs {
     /// grids (the first in each file, as Houdini's VDB from Points writes), XYZ or CSV text.
     #[arg(long)]
     particles: String,
-    /// Particle radius: the surface of a lone particle sits this far from it.
+    /// Particle radius: the surface of a lone particle sits this far from it. Particles
+    /// with their own radius (PLY `radius`/`pscale`, VDB `pscale`) use theirs, unless
+    /// --ignore-radii. Also sets the default voxel size, radius/2.
     #[arg(long)]
     radius: f32,
+    /// Use --radius for every particle, whatever radii the files hold.
+    #[arg(long)]
+    ignore_radii: bool,
     /// Density of the surface (default: the one that puts a lone particle's surface at
     /// --radius, with a kernel support of two radii).
     #[arg(long)]
@@ -76,7 +81,13 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
         if cloud.positions.is_empty() {
             bail!("{}: no particles", path.display());
         }
-        let density = Density::new(cloud.positions, h, iso);
+        let density = match cloud.radii {
+            Some(radii) if !args.ignore_radii => {
+                let supports = radii.iter().map(|r| 2.0 * r).collect();
+                Density::with_supports(cloud.positions, supports, iso)
+            }
+            _ => Density::new(cloud.positions, h, iso),
+        };
         if let Some(out) = &density_out {
             let fog = Grid::from_data(&density.to_fog_volume(params.dx))?;
             let meta = FileMetadata {

@@ -1,6 +1,7 @@
 //! The density of a particle frame as a target (paper §6.1):
-//! `G(X) = Σ W(|X − p_i| / h)` with the compact kernel `W(q) = (1 − q²)³` for q < 1,
-//! neighbours found through a hashed grid of cells of side h.
+//! `G(X) = Σ W(|X − p_i| / h_i)` with the compact kernel `W(q) = (1 − q²)³` for q < 1,
+//! one support h for all particles or one each (from their radii), neighbours found
+//! through a hashed grid of cells of side max h_i.
 
 use glam::{IVec3, Vec3};
 use hashbrown::{HashMap, HashSet};
@@ -28,7 +29,10 @@ pub fn iso_for_radius(radius: f32, h: f32) -> f32 {
 
 pub struct Density {
     positions: Vec<Vec3>,
+    /// 1/h_i² per particle.
+    inv_h2: Vec<f32>,
     cells: HashMap<IVec3, Vec<u32>>,
+    /// The largest support: the cell size.
     h: f32,
     iso: f32,
     bounds: Aabb,
@@ -37,6 +41,16 @@ pub struct Density {
 impl Density {
     /// `h`: the kernel's support (world units); `iso`: the density of the surface.
     pub fn new(positions: Vec<Vec3>, h: f32, iso: f32) -> Self {
+        let supports = vec![h; positions.len()];
+        Self::with_supports(positions, supports, iso)
+    }
+
+    /// One support per particle: with h_i = 2 r_i and the iso of [`iso_for_radius`]
+    /// (r, 2r) — the same for every r — a lone particle's surface sits at its own radius.
+    pub fn with_supports(positions: Vec<Vec3>, supports: Vec<f32>, iso: f32) -> Self {
+        assert_eq!(positions.len(), supports.len(), "one support per particle");
+        let h = supports.iter().copied().fold(0.0f32, f32::max);
+        let inv_h2 = supports.iter().map(|s| 1.0 / (s * s)).collect();
         let mut cells: HashMap<IVec3, Vec<u32>> = HashMap::new();
         let mut bounds = Aabb {
             min: Vec3::INFINITY,
@@ -52,6 +66,7 @@ impl Density {
         }
         Density {
             positions,
+            inv_h2,
             cells,
             h,
             iso,
@@ -65,16 +80,16 @@ impl Density {
     }
 
     /// G and ∇G at `p` in one pass over the neighbours:
-    /// ∇W = −6 (1 − q²)² (p − p_i) / h².
+    /// ∇W = −6 (1 − q²)² (p − p_i) / h_i².
     pub fn density_and_gradient(&self, p: Vec3) -> (f32, Vec3) {
         let cell = (p / self.h).floor().as_ivec3();
-        let inv_h2 = 1.0 / (self.h * self.h);
         let (mut g, mut grad) = (0.0, Vec3::ZERO);
         for n in 0..27 {
             let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
             if let Some(list) = self.cells.get(&(cell + d)) {
                 for &i in list {
                     let r = p - self.positions[i as usize];
+                    let inv_h2 = self.inv_h2[i as usize];
                     let s = 1.0 - r.length_squared() * inv_h2;
                     if s > 0.0 {
                         g += s * s * s;
@@ -193,5 +208,32 @@ mod tests {
         let lone = Density::new(vec![Vec3::ZERO], h, iso_for_radius(0.05, h));
         assert!(lone.distance(Vec3::new(0.05, 0.0, 0.0)).abs() < 1e-6);
         assert!(lone.distance(Vec3::ZERO) < 0.0 && lone.distance(Vec3::X * 0.07) > 0.0);
+    }
+
+    #[test]
+    fn each_particle_sits_at_its_own_radius() {
+        let (small, large) = (0.05, 0.12);
+        let at = [Vec3::ZERO, Vec3::X];
+        let density = Density::with_supports(
+            at.to_vec(),
+            vec![2.0 * small, 2.0 * large],
+            iso_for_radius(1.0, 2.0),
+        );
+        for (centre, radius) in at.into_iter().zip([small, large]) {
+            for dir in [Vec3::X, Vec3::Y, -Vec3::Z] {
+                let d = density.distance(centre + dir * radius);
+                assert!(d.abs() < 1e-5, "radius {radius}: {d}");
+            }
+        }
+        // The gradient with mixed supports still matches finite differences.
+        let p = Vec3::new(0.9, 0.05, 0.0);
+        let (_, grad) = density.density_and_gradient(p);
+        let e = 1e-3;
+        let fd = (density.density(p + Vec3::X * e) - density.density(p - Vec3::X * e)) / (2.0 * e);
+        assert!(
+            (grad.x - fd).abs() < 1e-2 * grad.length(),
+            "{} vs {fd}",
+            grad.x
+        );
     }
 }
