@@ -28,10 +28,10 @@ pub fn iso_for_radius(radius: f32, h: f32) -> f32 {
 }
 
 pub struct Density {
-    positions: Vec<Vec3>,
-    /// 1/h_i² per particle.
-    inv_h2: Vec<f32>,
-    cells: HashMap<IVec3, Vec<u32>>,
+    /// Particles sorted by cell: position and 1/h_i², each cell's run contiguous.
+    particles: Vec<(Vec3, f32)>,
+    /// Each cell's run in `particles`.
+    cells: HashMap<IVec3, (u32, u32)>,
     /// The largest support: the cell size.
     h: f32,
     iso: f32,
@@ -50,23 +50,34 @@ impl Density {
     pub fn with_supports(positions: Vec<Vec3>, supports: Vec<f32>, iso: f32) -> Self {
         assert_eq!(positions.len(), supports.len(), "one support per particle");
         let h = supports.iter().copied().fold(0.0f32, f32::max);
-        let inv_h2 = supports.iter().map(|s| 1.0 / (s * s)).collect();
-        let mut cells: HashMap<IVec3, Vec<u32>> = HashMap::new();
+        let key = |p: Vec3| (p / h).floor().as_ivec3();
         let mut bounds = Aabb {
             min: Vec3::INFINITY,
             max: Vec3::NEG_INFINITY,
         };
-        for (i, &p) in positions.iter().enumerate() {
-            cells
-                .entry((p / h).floor().as_ivec3())
-                .or_default()
-                .push(i as u32);
+        for &p in &positions {
             bounds.min = bounds.min.min(p);
             bounds.max = bounds.max.max(p);
         }
+        // Sorted by cell so that a query reads each neighbour cell's particles in one run;
+        // ties by input order, so that sums (and resumed runs) are the same every time.
+        let mut particles: Vec<(IVec3, Vec3, f32, u32)> = positions
+            .par_iter()
+            .zip(supports.par_iter())
+            .enumerate()
+            .map(|(i, (&p, &s))| (key(p), p, 1.0 / (s * s), i as u32))
+            .collect();
+        particles.par_sort_unstable_by_key(|(c, .., i)| (c.to_array(), *i));
+        let mut cells = HashMap::new();
+        let mut start = 0;
+        for (end, (c, ..)) in particles.iter().enumerate() {
+            if particles.get(end + 1).map_or(true, |next| next.0 != *c) {
+                cells.insert(*c, (start as u32, end as u32 + 1));
+                start = end + 1;
+            }
+        }
         Density {
-            positions,
-            inv_h2,
+            particles: particles.into_iter().map(|(_, p, k, _)| (p, k)).collect(),
             cells,
             h,
             iso,
@@ -86,10 +97,9 @@ impl Density {
         let (mut g, mut grad) = (0.0, Vec3::ZERO);
         for n in 0..27 {
             let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
-            if let Some(list) = self.cells.get(&(cell + d)) {
-                for &i in list {
-                    let r = p - self.positions[i as usize];
-                    let inv_h2 = self.inv_h2[i as usize];
+            if let Some(&(start, end)) = self.cells.get(&(cell + d)) {
+                for &(q, inv_h2) in &self.particles[start as usize..end as usize] {
+                    let r = p - q;
                     let s = 1.0 - r.length_squared() * inv_h2;
                     if s > 0.0 {
                         g += s * s * s;
@@ -108,7 +118,7 @@ impl Density {
     pub fn to_fog_volume(&self, dx: f32) -> GridData {
         let leaf = 8.0 * dx;
         let mut coords: HashSet<IVec3> = HashSet::new();
-        for &p in &self.positions {
+        for &(p, _) in &self.particles {
             let lo = ((p - Vec3::splat(self.h)) / leaf).floor().as_ivec3();
             let hi = ((p + Vec3::splat(self.h)) / leaf).floor().as_ivec3();
             for x in lo.x..=hi.x {
