@@ -83,16 +83,24 @@ std::unique_ptr<FloatGrid> mesh_to_level_set(rust::Slice<const float> points,
 }
 
 namespace {
-MorphTiming morph(openvdb::FloatGrid &grid, const openvdb::FloatGrid &target, double duration) {
+// Times `work` (which returns its iteration count) on `grid`.
+template <typename Work>
+MorphTiming timed(const openvdb::FloatGrid &grid, Work &&work) {
   const auto start = std::chrono::steady_clock::now();
-  openvdb::tools::LevelSetMorphing<openvdb::FloatGrid> morph(grid, target);
-  const size_t iterations = morph.advect(0.0f, static_cast<float>(duration));
+  const size_t iterations = work();
   const std::chrono::duration<double> elapsed = std::chrono::steady_clock::now() - start;
   MorphTiming t;
   t.seconds = elapsed.count();
   t.iterations = iterations;
   t.active_voxels = grid.activeVoxelCount();
   return t;
+}
+
+MorphTiming morph(openvdb::FloatGrid &grid, const openvdb::FloatGrid &target, double duration) {
+  return timed(grid, [&] {
+    openvdb::tools::LevelSetMorphing<openvdb::FloatGrid> morph(grid, target);
+    return morph.advect(0.0f, static_cast<float>(duration));
+  });
 }
 }  // namespace
 
@@ -110,15 +118,11 @@ MorphTiming mean_curvature_flow(FloatGrid &handle, uint32_t iterations) {
   if (grid.getGridClass() != openvdb::GRID_LEVEL_SET) {
     throw openvdb::TypeError("mean-curvature flow needs a grid of class level set");
   }
-  const auto start = std::chrono::steady_clock::now();
-  openvdb::tools::LevelSetFilter<openvdb::FloatGrid> filter(grid);
-  for (uint32_t i = 0; i < iterations; ++i) filter.meanCurvature();
-  const std::chrono::duration<double> elapsed = std::chrono::steady_clock::now() - start;
-  MorphTiming t;
-  t.seconds = elapsed.count();
-  t.iterations = iterations;
-  t.active_voxels = grid.activeVoxelCount();
-  return t;
+  return timed(grid, [&] {
+    openvdb::tools::LevelSetFilter<openvdb::FloatGrid> filter(grid);
+    for (uint32_t i = 0; i < iterations; ++i) filter.meanCurvature();
+    return static_cast<size_t>(iterations);
+  });
 }
 
 uint64_t mem_usage(const FloatGrid &grid) { return grid.impl().grid->memUsage(); }

@@ -49,7 +49,7 @@ impl Report {
         self.check.is_empty()
             || self
                 .exact_flagged
-                .is_some_and(|exact| flagged_voxels(&Err(self.check.clone())) <= exact)
+                .is_some_and(|exact| flagged_voxels(&self.check) <= exact)
     }
 
     pub fn passes(&self) -> bool {
@@ -186,23 +186,26 @@ pub fn eikonal_against_exact(grid: &Grid) -> Result<(usize, usize), VdbError> {
     let dx = grid.to_data()?.transform.voxel_size();
     let mesh = our_mesh(grid)?;
     let exact = Grid::mesh_to_level_set(&mesh.positions, &mesh.triangles, dx, 3.0)?;
+    let message = |verdict: Result<(), String>| verdict.err().unwrap_or_default();
     Ok((
-        flagged_voxels(&grid.check_level_set()?),
-        flagged_voxels(&exact.check_level_set()?),
+        flagged_voxels(&message(grid.check_level_set()?)),
+        flagged_voxels(&message(exact.check_level_set()?)),
     ))
 }
 
-/// Voxels flagged by a checkLevelSet verdict: 0 when valid, all of them (usize::MAX)
-/// when it fails for another reason than the Eikonal test.
-fn flagged_voxels(verdict: &Result<(), String>) -> usize {
-    match verdict {
-        Ok(()) => 0,
-        Err(message) if message.contains("NormGrad") => message
+/// Voxels flagged by checkLevelSet's message: 0 when empty (valid), all of them
+/// (usize::MAX) when it fails for another reason than the Eikonal test.
+fn flagged_voxels(message: &str) -> usize {
+    if message.is_empty() {
+        0
+    } else if message.contains("NormGrad") {
+        message
             .split_whitespace()
             .next()
             .and_then(|n| n.parse().ok())
-            .unwrap_or(usize::MAX),
-        Err(_) => usize::MAX,
+            .unwrap_or(usize::MAX)
+    } else {
+        usize::MAX
     }
 }
 

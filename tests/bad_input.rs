@@ -4,38 +4,16 @@
 //! (More cases — missing, empty, NaN, empty grid, non-uniform, fog without --iso, bad
 //! options — are in `cli_skin.rs`, `cli_info.rs`, `cli_particles.rs` and `vdb_points.rs`.)
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
+
+use common::{activeskin, assert_fails, names, Lcg};
 
 use activeskin::target::{sample, Sphere, Target};
 use activeskin::vdb::{self, FileMetadata, Grid, GridData, WriteOptions};
 use glam::Vec3;
-
-fn activeskin(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_activeskin"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn assert_fails(out: &Output, code: i32, names: &str, what: &str) {
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(code), "{what}: {err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "{what}: {err}");
-    assert!(err.contains(names), "{what}: does not name {names}: {err}");
-    assert!(!err.contains("panicked"), "{what}: {err}");
-}
-
-fn names(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .map(|d| {
-            d.map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-                .collect()
-        })
-        .unwrap_or_default();
-    names.sort();
-    names
-}
 
 fn sphere(dx: f32) -> GridData {
     let sphere = Sphere {
@@ -87,16 +65,7 @@ fn skin_stops_at_frame_2(what: &str, damage: impl Fn(&Path)) {
 #[test]
 fn damaged_vdb_frames() {
     skin_stops_at_frame_2("random bytes", |f| {
-        let mut state = 99u64;
-        let bytes: Vec<u8> = (0..4096)
-            .map(|_| {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (state >> 56) as u8
-            })
-            .collect();
-        std::fs::write(f, bytes).unwrap();
+        std::fs::write(f, Lcg(99).bytes(4096)).unwrap();
     });
     let whole = {
         let dir = tempfile::tempdir().unwrap();

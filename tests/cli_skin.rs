@@ -3,8 +3,12 @@
 //! `--resume` equal to an uninterrupted run, and bad input reported in one line with
 //! nothing lost.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+use common::{activeskin, assert_fails, stderr};
 
 use activeskin::mesh::Mesh;
 use activeskin::target::{sample, Sphere, Target};
@@ -13,19 +17,8 @@ use glam::Vec3;
 
 const DATA_DX: f64 = 1.0 / 16.0;
 
-fn activeskin(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_activeskin"))
-        .args(args)
-        .output()
-        .expect("run activeskin")
-}
-
 fn data(path: &str) -> String {
     format!("{}/data/{path}", env!("CARGO_MANIFEST_DIR"))
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
 fn assert_ok(out: &Output) {
@@ -34,31 +27,12 @@ fn assert_ok(out: &Output) {
 
 /// Exit 1 (bad data), one line naming `file`, no panic.
 fn assert_one_line_error(out: &Output, file: &str) {
-    assert_fails_with(out, 1, file);
+    assert_fails(out, 1, file, "bad data");
 }
 
 /// Exit 2 (bad usage), one line naming `what`, no panic.
 fn assert_usage_error(out: &Output, what: &str) {
-    assert_fails_with(out, 2, what);
-}
-
-fn assert_fails_with(out: &Output, code: i32, file: &str) {
-    let err = stderr(out);
-    assert_eq!(out.status.code(), Some(code), "{err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
-    assert!(err.contains(file), "error does not name {file}: {err}");
-    assert!(!err.contains("panicked"), "{err}");
-}
-
-fn files_in(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .map(|d| {
-            d.map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-                .collect()
-        })
-        .unwrap_or_default();
-    names.sort();
-    names
+    assert_fails(out, 2, what, "bad usage");
 }
 
 fn read_skin(path: &Path) -> GridData {
@@ -163,7 +137,7 @@ fn moving_sphere_every_frame_valid_and_on_target() {
             .fold(0.0, f64::max);
         assert!(max <= 1.0, "frame {frame}: {max:.2} voxels off the target");
     }
-    assert!(files_in(dir.path()).iter().all(|f| !f.contains("tmp")));
+    assert!(common::names(dir.path()).iter().all(|f| !f.contains("tmp")));
 }
 
 #[test]
@@ -341,7 +315,7 @@ fn a_bad_frame_stops_the_run_and_keeps_earlier_frames() {
         ));
         assert_one_line_error(&result, "sphere.0004.vdb");
         assert_eq!(
-            files_in(&out_dir),
+            common::names(&out_dir),
             ["skin.0001.vdb", "skin.0002.vdb", "skin.0003.vdb"],
             "{what}"
         );
@@ -364,7 +338,7 @@ fn hold_missing_keeps_the_last_target() {
         &["--frames", "1-8", "--hold-missing"],
     ));
     assert_ok(&result);
-    assert_eq!(files_in(&dir.path().join("out")).len(), 8);
+    assert_eq!(common::names(&dir.path().join("out")).len(), 8);
 }
 
 #[test]
@@ -539,7 +513,7 @@ fn killed_then_resumed_equals_uninterrupted() {
     }
     child.kill().unwrap();
     child.wait().unwrap();
-    let written = files_in(part.path())
+    let written = common::names(part.path())
         .iter()
         .filter(|f| f.ends_with(".vdb") && !f.starts_with('.'))
         .count();
@@ -560,7 +534,7 @@ fn killed_then_resumed_equals_uninterrupted() {
             .map(String::as_str)
             .collect::<Vec<_>>(),
     ));
-    let names = files_in(part.path());
+    let names = common::names(part.path());
     assert_eq!(names.len(), 30, "temporary files left: {names:?}");
     let (a, b) = (
         read_skin(&whole.path().join("m.0030.vdb")),

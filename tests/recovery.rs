@@ -2,8 +2,12 @@
 //! stepping or writing — and resumed each time ends with the same last frame, bit for
 //! bit, as an uninterrupted run; every frame on disk is whole; no temporary file is left.
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
+
+use common::{names, Lcg};
 use std::time::{Duration, Instant};
 
 use activeskin::vdb::{self, Grid};
@@ -64,15 +68,6 @@ fn run_and_kill(out: &Path, resume: bool, delay: Duration) -> bool {
     true
 }
 
-fn names(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
-}
-
 /// Every VDB frame on disk opens with its one grid, and every OBJ is whole.
 fn assert_frames_whole(dir: &Path) {
     for name in names(dir) {
@@ -113,20 +108,14 @@ fn killed_at_random_moments_then_resumed_equals_uninterrupted() {
                 .as_nanos() as u64
         });
     println!("RECOVERY_SEED={seed} (uninterrupted run {full:?})");
-    let mut state = seed | 1;
-    let mut next = move || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 40) as f64 / (1u64 << 24) as f64
-    };
+    let mut random = Lcg(seed | 1);
 
     for trial in 0..4 {
         let part = tempfile::tempdir().unwrap();
         // Three kills at random moments, each run resuming the last, then one to the end.
         let mut kills = 0;
         for attempt in 0..3 {
-            let delay = full.mul_f64(0.05 + 0.9 * next());
+            let delay = full.mul_f64(0.05 + 0.9 * f64::from(random.next_f32()));
             if run_and_kill(part.path(), attempt > 0, delay) {
                 kills += 1;
             }

@@ -6,8 +6,11 @@
 //! consistent with the component count. `cargo test --release --test soak -- --ignored
 //! --nocapture` (about a minute on 2 cores).
 
+mod common;
+
 use activeskin::skin::{Skin, SkinParams, SpeedParams};
 use activeskin::target::{Sphere, Target, Union};
+use common::Lcg;
 use glam::Vec3;
 
 /// Resident memory of this process, bytes (Linux).
@@ -21,19 +24,6 @@ fn resident_bytes() -> usize {
     pages * 4096
 }
 
-/// Deterministic pseudo-random numbers in [0, 1).
-struct Random(u64);
-
-impl Random {
-    fn next(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-}
-
 /// A sphere on a smooth random path: centre and radius are sums of two sinusoids.
 struct Wanderer {
     phase: [f32; 8],
@@ -41,10 +31,10 @@ struct Wanderer {
 }
 
 impl Wanderer {
-    fn new(random: &mut Random) -> Self {
+    fn new(random: &mut Lcg) -> Self {
         Wanderer {
-            phase: std::array::from_fn(|_| random.next() * std::f32::consts::TAU),
-            speed: std::array::from_fn(|_| 0.3 + 1.2 * random.next()),
+            phase: std::array::from_fn(|_| random.next_f32() * std::f32::consts::TAU),
+            speed: std::array::from_fn(|_| 0.3 + 1.2 * random.next_f32()),
         }
     }
 
@@ -64,7 +54,7 @@ impl Wanderer {
 #[test]
 #[ignore = "soak: about a minute; run with --ignored"]
 fn ten_thousand_steps_against_changing_targets() {
-    let mut random = Random(2024);
+    let mut random = Lcg(2024);
     let wanderers: Vec<Wanderer> = (0..4).map(|_| Wanderer::new(&mut random)).collect();
     let target_at = |t: f32| {
         // Between one and four spheres: the count itself changes every few seconds.

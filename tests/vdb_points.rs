@@ -2,23 +2,20 @@
 //! their voxel, as Houdini writes them) and `pscale` come back through the bridge; files
 //! without points or cut short are one-line errors; `activeskin particles` skins them.
 
+mod common;
+
 use std::path::Path;
-use std::process::Command;
+
+use common::{activeskin, Lcg};
 
 use activeskin::particles;
 use activeskin::vdb;
 use glam::Vec3;
 
 fn scattered(n: usize, seed: u64) -> Vec<[f32; 3]> {
-    let mut state = seed;
-    let mut next = move || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut random = Lcg(seed);
     (0..n)
-        .map(|_| [next() - 0.5, next() - 0.5, next() - 0.5].map(|c| 2.0 * c + 1.5))
+        .map(|_| [(); 3].map(|()| 2.0 * (random.next_f32() - 0.5) + 1.5))
         .collect()
 }
 
@@ -57,13 +54,6 @@ fn positions_and_pscale_round_trip_within_fixed_point() {
         listing.contains("ptdataidx32") && listing.contains("700"),
         "{listing}"
     );
-}
-
-fn activeskin(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_activeskin"))
-        .args(args)
-        .output()
-        .unwrap()
 }
 
 fn one_line_error(path: &Path) -> String {

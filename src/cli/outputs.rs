@@ -126,31 +126,36 @@ pub struct Outputs {
     plain: bool,
 }
 
+/// A usage error unless `pattern`'s files end in one of `extensions`.
+fn require_extension(
+    flag: &str,
+    pattern: &FramePattern,
+    what: &str,
+    extensions: &[&str],
+) -> anyhow::Result<()> {
+    let name = pattern.path(0);
+    let ext = name.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if !extensions.iter().any(|e| ext.eq_ignore_ascii_case(e)) {
+        usage!(
+            "{flag} '{}': {what} must end in .{}",
+            name.display(),
+            extensions.join(" or .")
+        );
+    }
+    Ok(())
+}
+
 impl Outputs {
     pub fn new(args: &OutputArgs, frames: u64) -> anyhow::Result<Self> {
         let out = args.out.as_deref().map(pattern_arg).transpose()?;
         let mesh = args.mesh.as_deref().map(pattern_arg).transpose()?;
         if let Some(mesh) = &mesh {
-            let name = mesh.path(0);
-            let ext = name.extension().and_then(|e| e.to_str()).unwrap_or("");
-            if !ext.eq_ignore_ascii_case("obj") && !ext.eq_ignore_ascii_case("ply") {
-                usage!(
-                    "--mesh '{}': meshes must end in .obj or .ply",
-                    name.display()
-                );
-            }
+            require_extension("--mesh", mesh, "meshes", &["obj", "ply"])?;
         }
         let render = match &args.render {
             Some(spec) => {
                 let pattern = pattern_arg(spec)?;
-                let name = pattern.path(0);
-                let ext = name.extension().and_then(|e| e.to_str()).unwrap_or("");
-                if !ext.eq_ignore_ascii_case("exr") && !ext.eq_ignore_ascii_case("png") {
-                    usage!(
-                        "--render '{}': renders must end in .exr or .png",
-                        name.display()
-                    );
-                }
+                require_extension("--render", &pattern, "renders", &["exr", "png"])?;
                 Some((pattern, parse_size(&args.render_size)?, None))
             }
             None => None,
