@@ -5,10 +5,12 @@ use std::io::Write;
 use std::path::Path;
 
 use glam::Vec3;
-use hashbrown::HashMap;
 use rayon::prelude::*;
 
+mod check;
 mod nearest;
+
+pub use check::MeshCheck;
 pub use nearest::TriangleIndex;
 
 #[derive(Debug, Clone, Default)]
@@ -27,14 +29,6 @@ pub struct Mesh {
 pub struct MeshError {
     pub path: std::path::PathBuf,
     pub message: String,
-}
-
-/// Whether each undirected edge has exactly two triangles, traversed in opposite
-/// directions, and each vertex's triangles form one fan.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Topology {
-    pub closed: bool,
-    pub manifold: bool,
 }
 
 impl Mesh {
@@ -122,52 +116,6 @@ impl Mesh {
         (0..self.positions.len() as u32)
             .filter(|&i| used[i as usize] && root(&mut parent, i) == i)
             .count()
-    }
-
-    pub fn topology(&self) -> Topology {
-        let mut directed: HashMap<(u32, u32), u32> =
-            HashMap::with_capacity(self.triangles.len() * 3);
-        for t in &self.triangles {
-            for i in 0..3 {
-                *directed.entry((t[i], t[(i + 1) % 3])).or_insert(0) += 1;
-            }
-        }
-        let closed = directed
-            .iter()
-            .all(|(&(a, b), &n)| n == 1 && directed.get(&(b, a)) == Some(&1));
-        // Manifold vertices: the triangles around each vertex form a single cycle.
-        let mut around: Vec<(u32, u32, u32)> = Vec::with_capacity(self.triangles.len() * 3);
-        for t in &self.triangles {
-            for i in 0..3 {
-                // Around t[i], this triangle leads from neighbour t[i+1] to t[i+2].
-                around.push((t[i], t[(i + 1) % 3], t[(i + 2) % 3]));
-            }
-        }
-        around.sort_unstable();
-        let manifold = closed
-            && around.chunk_by(|a, b| a.0 == b.0).all(|fan| {
-                let step = |from: u32| {
-                    fan.binary_search_by_key(&from, |&(_, a, _)| a)
-                        .ok()
-                        .map(|i| fan[i].2)
-                };
-                // Back at the start after exactly one trip round: one fan, not several.
-                let start = fan[0].1;
-                let mut at = start;
-                let mut steps = 0;
-                loop {
-                    match step(at) {
-                        Some(n) => at = n,
-                        None => return false,
-                    }
-                    steps += 1;
-                    if at == start || steps > fan.len() {
-                        break;
-                    }
-                }
-                steps == fan.len()
-            });
-        Topology { closed, manifold }
     }
 
     /// Wavefront OBJ with normals, through a temporary file renamed into place.

@@ -260,7 +260,7 @@ impl<P: Potential> Skin<P> {
     /// nodes in the band, for the CFL bound.
     fn compute_rates(&mut self, target: &dyn Target) -> f32 {
         // G at each crossing point of the last mesh: one target evaluation each.
-        let positions = &self.mesh.positions;
+        let positions = self.crossings.points();
         self.crossing_distance.clear();
         self.crossing_distance
             .par_extend(positions.par_iter().map(|&p| target.distance(p)));

@@ -33,10 +33,8 @@ fn sphere(radius: f32) -> Sphere {
 
 /// Closed, manifold, wound outward.
 fn assert_watertight(mesh: &Mesh, when: &str) {
-    let topology = mesh.topology();
-    assert!(topology.closed, "{when}: mesh not closed");
-    assert!(topology.manifold, "{when}: mesh not manifold");
-    assert!(mesh.volume() > 0.0, "{when}: mesh wound inward");
+    let check = mesh.check();
+    assert!(check.is_clean(), "{when}: {check}");
 }
 
 /// Mean and max distance of the mesh vertices to a target, in voxels.

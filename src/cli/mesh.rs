@@ -46,7 +46,7 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
         .max(f32::MIN_POSITIVE);
     let mesh = mesh_vdb(&data, |v| sign * (v - iso) / range);
     mesh.write(&args.output)?;
-    let topology = mesh.topology();
+    let check = mesh.check();
     println!(
         "{}: {} vertices, {} triangles, area {:.6}, volume {:.6}, χ {}, {} component(s){}",
         args.output.display(),
@@ -56,10 +56,10 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
         mesh.volume(),
         mesh.euler_characteristic(),
         mesh.components(),
-        if topology.closed {
-            ""
+        if check.closed() {
+            String::new()
         } else {
-            ", open at the grid's edge"
+            format!(", not closed (at the grid's edge?): {check}")
         }
     );
     Ok(())

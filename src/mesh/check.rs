@@ -1,0 +1,207 @@
+//! Whether a mesh is a clean surface, as booleans, subdivision and remeshers need it: every
+//! edge in exactly two triangles traversed in opposite directions, one fan of triangles
+//! around each vertex, no two triangles on the same three points, no triangle of zero
+//! area, and wound outward (positive enclosed volume).
+
+use glam::DVec3;
+use hashbrown::{HashMap, HashSet};
+
+use super::Mesh;
+
+/// What [`Mesh::check`] found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct MeshCheck {
+    pub triangles: usize,
+    /// Undirected edges not in exactly two triangles of opposite directions.
+    pub open_edges: usize,
+    /// Vertices whose triangles form more than one fan (or an open one).
+    pub pinched_vertices: usize,
+    /// Triangles on the same three points as another (by index or by position).
+    pub coincident: usize,
+    /// Triangles of zero area (two corners at one point, or three on a line).
+    pub degenerate: usize,
+    /// Enclosed volume ≤ 0 for a non-empty mesh: wound inside out.
+    pub inward: bool,
+}
+
+impl MeshCheck {
+    /// Closed: each edge in two triangles, in opposite directions.
+    pub fn closed(&self) -> bool {
+        self.open_edges == 0
+    }
+
+    /// Closed with one fan around each vertex.
+    pub fn manifold(&self) -> bool {
+        self.closed() && self.pinched_vertices == 0
+    }
+
+    /// Everything a downstream tool relies on.
+    pub fn is_clean(&self) -> bool {
+        self.manifold() && self.coincident == 0 && self.degenerate == 0 && !self.inward
+    }
+}
+
+impl std::fmt::Display for MeshCheck {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.is_clean() {
+            return write!(f, "clean ({} triangles)", self.triangles);
+        }
+        let mut problems = Vec::new();
+        for (n, what) in [
+            (
+                self.open_edges,
+                "edges not in exactly two opposite triangles",
+            ),
+            (self.pinched_vertices, "vertices with more than one fan"),
+            (self.coincident, "coincident triangles"),
+            (self.degenerate, "zero-area triangles"),
+        ] {
+            if n > 0 {
+                problems.push(format!("{n} {what}"));
+            }
+        }
+        if self.inward {
+            problems.push("wound inward".into());
+        }
+        write!(f, "{} ({} triangles)", problems.join(", "), self.triangles)
+    }
+}
+
+impl Mesh {
+    /// Checks the mesh; see [`MeshCheck`].
+    pub fn check(&self) -> MeshCheck {
+        let mut directed: HashMap<(u32, u32), u32> =
+            HashMap::with_capacity(self.triangles.len() * 3);
+        for t in &self.triangles {
+            for i in 0..3 {
+                *directed.entry((t[i], t[(i + 1) % 3])).or_insert(0) += 1;
+            }
+        }
+        let mut open: HashSet<(u32, u32)> = HashSet::new();
+        for (&(a, b), &n) in &directed {
+            if n != 1 || directed.get(&(b, a)) != Some(&1) {
+                open.insert((a.min(b), a.max(b)));
+            }
+        }
+
+        let mut by_index = HashSet::with_capacity(self.triangles.len());
+        let mut by_position = HashSet::with_capacity(self.triangles.len());
+        let mut coincident = 0;
+        let mut degenerate = 0;
+        for t in &self.triangles {
+            let mut sorted = *t;
+            sorted.sort_unstable();
+            let mut points = t.map(|i| self.positions[i as usize].to_array().map(f32::to_bits));
+            points.sort_unstable();
+            if !by_index.insert(sorted) | !by_position.insert(points) {
+                coincident += 1;
+            }
+            let [a, b, c] = t.map(|i| self.positions[i as usize].as_dvec3());
+            if (b - a).cross(c - a) == DVec3::ZERO {
+                degenerate += 1;
+            }
+        }
+
+        MeshCheck {
+            triangles: self.triangles.len(),
+            open_edges: open.len(),
+            pinched_vertices: if open.is_empty() {
+                self.pinched_vertices()
+            } else {
+                0
+            },
+            coincident,
+            degenerate,
+            inward: !self.triangles.is_empty() && self.volume() <= 0.0,
+        }
+    }
+
+    /// Vertices of a closed mesh whose triangles do not form exactly one fan.
+    fn pinched_vertices(&self) -> usize {
+        // Around t[i], triangle t leads from neighbour t[i+1] to t[i+2].
+        let mut around: Vec<(u32, u32, u32)> = Vec::with_capacity(self.triangles.len() * 3);
+        for t in &self.triangles {
+            for i in 0..3 {
+                around.push((t[i], t[(i + 1) % 3], t[(i + 2) % 3]));
+            }
+        }
+        around.sort_unstable();
+        around
+            .chunk_by(|a, b| a.0 == b.0)
+            .filter(|fan| {
+                let step = |from: u32| {
+                    fan.binary_search_by_key(&from, |&(_, a, _)| a)
+                        .ok()
+                        .map(|i| fan[i].2)
+                };
+                // Back at the start after exactly one trip round: one fan, not several.
+                let start = fan[0].1;
+                let mut at = start;
+                let mut steps = 0;
+                loop {
+                    match step(at) {
+                        Some(n) => at = n,
+                        None => return true,
+                    }
+                    steps += 1;
+                    if at == start || steps > fan.len() {
+                        break;
+                    }
+                }
+                steps != fan.len()
+            })
+            .count()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn tetrahedron() -> Mesh {
+        Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z],
+            normals: vec![Vec3::ZERO; 4],
+            triangles: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+        }
+    }
+
+    #[test]
+    fn a_tetrahedron_is_clean_and_each_defect_is_named() {
+        let clean = tetrahedron();
+        assert!(clean.check().is_clean(), "{}", clean.check());
+
+        let mut inward = tetrahedron();
+        inward.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+        assert!(inward.check().inward && inward.check().manifold());
+
+        // A fin: one triangle twice, once each way round.
+        let mut fin = tetrahedron();
+        fin.triangles.extend([[0, 1, 3], [0, 3, 1]]);
+        let check = fin.check();
+        assert_eq!(check.coincident, 2);
+        assert!(!check.closed(), "{check}");
+
+        let mut open = tetrahedron();
+        open.triangles.pop();
+        assert_eq!(open.check().open_edges, 3);
+
+        let mut flat = tetrahedron();
+        flat.positions[3] = Vec3::new(0.5, 0.5, 0.0);
+        assert!(flat.check().degenerate > 0);
+
+        // Two tetrahedra sharing one vertex: closed, not manifold there.
+        let mut pinched = tetrahedron();
+        pinched.positions.extend([
+            Vec3::new(-1.0, 0.0, 0.0),
+            Vec3::new(0.0, -1.0, 0.0),
+            Vec3::new(0.0, 0.0, -1.0),
+        ]);
+        pinched
+            .triangles
+            .extend([[0, 4, 5], [0, 6, 4], [0, 5, 6], [4, 6, 5]]);
+        let check = pinched.check();
+        assert!(check.closed() && check.pinched_vertices == 1, "{check}");
+    }
+}
