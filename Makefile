@@ -26,6 +26,7 @@ bench: deps
 # Tests run optimised: they solve and mesh real grids.
 test: deps
 	$(CARGO) test --release
+	$(CARGO) test --release --no-default-features --lib --tests
 	$(MAKE) lint
 
 # 10 000 solver steps against ever-changing targets (about a minute).
@@ -43,6 +44,7 @@ fuzz: deps
 lint:
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --release --all-targets -- -D warnings
+	$(CARGO) clippy --release --no-default-features --lib --tests -- -D warnings
 
 clean:
 	$(CARGO) clean

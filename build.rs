@@ -3,8 +3,10 @@
 //! When a header the bridge needs is missing, the build stops with one line naming the
 //! command that installs it, instead of a page of compiler errors.
 
+#[cfg(feature = "vdb")]
 use std::path::{Path, PathBuf};
 
+#[cfg(feature = "vdb")]
 /// Header to look for, the Debian package that ships it.
 const REQUIRED: &[(&str, &str)] = &[
     ("openvdb/openvdb.h", "libopenvdb-dev"),
@@ -13,8 +15,10 @@ const REQUIRED: &[(&str, &str)] = &[
     ("Imath/half.h", "libimath-dev"),
 ];
 
+#[cfg(feature = "vdb")]
 const BRIDGE_SOURCES: &[&str] = &["cpp/vdb_bridge.cc", "cpp/vdb_tools.cc", "cpp/vdb_points.cc"];
 
+#[cfg(feature = "vdb")]
 /// Folders named by `OPENVDB_INCLUDE_DIR` (a PATH-style list), searched before the system's.
 fn extra_include_dirs() -> Vec<PathBuf> {
     std::env::var_os("OPENVDB_INCLUDE_DIR")
@@ -23,6 +27,13 @@ fn extra_include_dirs() -> Vec<PathBuf> {
 }
 
 fn main() {
+    // Without the `vdb` feature there is no C++ to build: the core is pure Rust.
+    #[cfg(feature = "vdb")]
+    build_bridge();
+}
+
+#[cfg(feature = "vdb")]
+fn build_bridge() {
     println!("cargo::rerun-if-changed=src/vdb/ffi.rs");
     println!("cargo::rerun-if-changed=cpp");
     println!("cargo::rerun-if-env-changed=OPENVDB_INCLUDE_DIR");

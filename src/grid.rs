@@ -8,6 +8,7 @@
 
 mod halo;
 mod import;
+pub mod tube;
 
 use glam::IVec3;
 use hashbrown::{HashMap, HashSet};

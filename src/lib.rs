@@ -27,12 +27,16 @@ pub mod sequence;
 pub mod skin;
 pub mod stencil;
 pub mod target;
+#[cfg(feature = "vdb")]
 pub mod validate;
+#[cfg(feature = "vdb")]
 pub mod vdb;
+pub mod volume;
 
 /// Every error of the library, one variant per stage.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
+    #[cfg(feature = "vdb")]
     #[error(transparent)]
     Vdb(#[from] vdb::VdbError),
     #[error(transparent)]

@@ -11,7 +11,7 @@ mod check;
 mod nearest;
 
 pub use check::MeshCheck;
-pub use nearest::TriangleIndex;
+pub use nearest::{hausdorff, mean_distance, TriangleIndex};
 
 #[derive(Debug, Clone, Default)]
 pub struct Mesh {

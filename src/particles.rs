@@ -45,9 +45,16 @@ pub fn read(path: &Path) -> Result<Particles, ParticleError> {
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
     if ext.as_deref() == Some("vdb") {
-        // The VDB reader names the file in its own errors.
-        let particles = read_vdb(path).map_err(|e| error(e.reason()))?;
-        return check(particles).map_err(error);
+        #[cfg(feature = "vdb")]
+        {
+            // The VDB reader names the file in its own errors.
+            let particles = read_vdb(path).map_err(|e| error(e.reason()))?;
+            return check(particles).map_err(error);
+        }
+        #[cfg(not(feature = "vdb"))]
+        return Err(error(
+            "VDB point files need activeskin built with the `vdb` feature".into(),
+        ));
     }
     let format = match ext.as_deref() {
         Some("ply") => Format::Ply,
@@ -104,6 +111,7 @@ pub fn write_ply(path: &Path, positions: &[Vec3]) -> Result<(), ParticleError> {
     })
 }
 
+#[cfg(feature = "vdb")]
 fn read_vdb(path: &Path) -> Result<Particles, crate::vdb::VdbError> {
     let points = crate::vdb::read_points(path, None)?;
     Ok(Particles {

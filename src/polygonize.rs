@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use crate::grid::{offset_coords, Block, BlockId, Halo, Potential, SparseGrid, BLOCK_DIM};
 use crate::mesh::Mesh;
-use crate::vdb::GridData;
+use crate::volume::GridData;
 
 pub use edges::{Crossings, LocalCrossings};
 
@@ -218,7 +218,7 @@ fn cube_triangles(halo: &Halo, l: IVec3, crossings: &LocalCrossings, out: &mut V
 /// at 0 and negative inside; in index space, then carried by the grid's full transform.
 pub fn mesh_vdb(data: &GridData, value: impl Fn(f32) -> f32) -> Mesh {
     let mut grid: SparseGrid<f32> = SparseGrid::from_vdb(data, value);
-    crate::skin::band::upkeep(&mut grid);
+    crate::grid::tube::upkeep(&mut grid);
     let index = IndexToWorld {
         origin: Vec3::ZERO,
         dx: 1.0,

@@ -19,7 +19,7 @@ use crate::mesh::{Mesh, TriangleIndex};
 use crate::polygonize::{Crossings, IndexToWorld, Polygonizer};
 use crate::stencil::Stencil;
 use crate::target::Target;
-use crate::vdb::{GridClass, GridData, Tile, Transform, MASK_WORDS};
+use crate::volume::{GridClass, GridData, Tile, Transform, MASK_WORDS};
 
 pub use speed::{AttractionSample, SpeedParams};
 
@@ -128,7 +128,7 @@ impl<P: Potential> Skin<P> {
         band::fill(&mut grid, |ijk| {
             start.distance(xf.apply(ijk.as_vec3())) / (w * dx)
         });
-        band::upkeep(&mut grid);
+        crate::grid::tube::upkeep(&mut grid);
         grid.shrink_to_fit();
         let mut skin = Skin {
             grid,
@@ -149,7 +149,7 @@ impl<P: Potential> Skin<P> {
         };
         for _ in 0..3 {
             band::renormalize(&mut skin.grid, w, &mut skin.rates);
-            band::upkeep(&mut skin.grid);
+            crate::grid::tube::upkeep(&mut skin.grid);
         }
         skin.polygonize();
         skin.rest_area = skin.area;
@@ -346,7 +346,7 @@ impl<P: Potential> Skin<P> {
                     }
                 }
             });
-        band::upkeep(&mut self.grid);
+        crate::grid::tube::upkeep(&mut self.grid);
         for _ in 0..self.params.renormalize_sweeps {
             band::renormalize(&mut self.grid, w, &mut self.rates);
         }
@@ -445,7 +445,7 @@ impl<P: Potential> Skin<P> {
         }
         let scale = self.background();
         self.grid = SparseGrid::from_vdb(data, |phi| phi / scale);
-        band::upkeep(&mut self.grid);
+        crate::grid::tube::upkeep(&mut self.grid);
         self.grid.shrink_to_fit();
         self.polygonize();
         Ok(())
@@ -453,7 +453,7 @@ impl<P: Potential> Skin<P> {
 
     /// The exported level set's background, w·Δx: the world distance of f = 1.
     fn background(&self) -> f32 {
-        crate::vdb::narrow_band_background(self.params.band_width, self.params.dx)
+        crate::volume::narrow_band_background(self.params.band_width, self.params.dx)
     }
 
     /// Sets the clock (seconds), e.g. after [`Skin::restore`].

@@ -3,11 +3,11 @@
 //! LevelSetMeasure (area, volume, χ) and checkLevelSet.
 
 use glam::Vec3;
-use rayon::prelude::*;
 
-use crate::mesh::{Mesh, TriangleIndex};
+use crate::mesh::{hausdorff, Mesh};
 use crate::polygonize::mesh_vdb;
-use crate::vdb::{Grid, GridClass, VdbError};
+use crate::vdb::{Grid, VdbError};
+use crate::volume::GridClass;
 
 /// Relative tolerance on areas and volumes.
 pub const RELATIVE_TOLERANCE: f64 = 0.005;
@@ -207,30 +207,6 @@ fn flagged_voxels(message: &str) -> usize {
     } else {
         usize::MAX
     }
-}
-
-/// Symmetric Hausdorff distance between two meshes (world units), searched through a
-/// hashed grid of triangles with cells of `cell`: distances beyond two cells are reported
-/// as found among the triangles within two cells, or as infinite.
-pub fn hausdorff(a: &Mesh, b: &Mesh, cell: f32) -> f64 {
-    let max = |d: Vec<f64>| d.into_iter().fold(0.0, f64::max);
-    max(distances(a, b, cell)).max(max(distances(b, a, cell)))
-}
-
-/// Mean distance from the vertices of `from` to the surface of `to` (world units),
-/// searched as in [`hausdorff`].
-pub fn mean_distance(from: &Mesh, to: &Mesh, cell: f32) -> f64 {
-    let d = distances(from, to, cell);
-    d.iter().sum::<f64>() / d.len().max(1) as f64
-}
-
-/// Distance from each vertex of `from` to the triangles of `to`.
-fn distances(from: &Mesh, to: &Mesh, cell: f32) -> Vec<f64> {
-    let index = TriangleIndex::new(to, cell);
-    from.positions
-        .par_iter()
-        .map(|&p| f64::from(index.distance(p, 2)))
-        .collect()
 }
 
 #[cfg(test)]

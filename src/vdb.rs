@@ -14,14 +14,10 @@ use cxx::UniquePtr;
 use glam::Vec3;
 
 pub use ffi::bridge::{
-    FileMetadata, GridClass, GridSummary, LevelSetMeasures, MeshBuffers, MorphTiming, PointBuffers,
-    Tile,
+    FileMetadata, GridSummary, LevelSetMeasures, MeshBuffers, MorphTiming, PointBuffers,
 };
 
-/// Voxels per leaf (8³), in OpenVDB's order: offset = (x & 7) << 6 | (y & 7) << 3 | (z & 7).
-pub const LEAF_VOXELS: usize = 512;
-/// Words of a leaf's active mask; bit `offset % 64` of word `offset / 64`.
-pub const MASK_WORDS: usize = 8;
+use crate::volume::{GridClass, GridData, Tile, Transform, LEAF_VOXELS, MASK_WORDS};
 
 /// Why reading or writing a VDB file failed. Every message fits on one line and names
 /// the file.
@@ -53,83 +49,6 @@ impl VdbError {
 /// OpenVDB messages may span lines; ours must not.
 fn one_line(message: &str) -> String {
     message.split_whitespace().collect::<Vec<_>>().join(" ")
-}
-
-/// An affine index-to-world map, row-major in OpenVDB's row-vector convention
-/// (world = [i j k 1] · M).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Transform {
-    pub matrix: [f64; 16],
-}
-
-impl Transform {
-    /// Voxels of side `voxel_size` with index (0,0,0) centred at `origin`.
-    pub fn uniform(voxel_size: f64, origin: [f64; 3]) -> Self {
-        let d = voxel_size;
-        #[rustfmt::skip]
-        let matrix = [
-            d, 0.0, 0.0, 0.0,
-            0.0, d, 0.0, 0.0,
-            0.0, 0.0, d, 0.0,
-            origin[0], origin[1], origin[2], 1.0,
-        ];
-        Transform { matrix }
-    }
-
-    /// Length of one index step along x, in world units.
-    pub fn voxel_size(&self) -> f64 {
-        let m = &self.matrix;
-        (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt()
-    }
-
-    pub fn index_to_world(&self, ijk: [f64; 3]) -> [f64; 3] {
-        let m = &self.matrix;
-        std::array::from_fn(|c| ijk[0] * m[c] + ijk[1] * m[4 + c] + ijk[2] * m[8 + c] + m[12 + c])
-    }
-}
-
-/// A float grid copied into Rust, leaf by leaf.
-#[derive(Debug, Clone, PartialEq)]
-pub struct GridData {
-    pub name: String,
-    pub class: GridClass,
-    pub background: f32,
-    pub transform: Transform,
-    /// True when the transform is linear with one scale on all axes.
-    pub uniform_linear: bool,
-    pub leaf_origins: Vec<[i32; 3]>,
-    /// `LEAF_VOXELS` values per leaf, leaves in the order of `leaf_origins`.
-    pub leaf_values: Vec<f32>,
-    pub leaf_masks: Vec<[u64; MASK_WORDS]>,
-    /// Constant regions above leaf level; inactive tiles equal to the background are
-    /// implied and left out.
-    pub tiles: Vec<Tile>,
-}
-
-impl GridData {
-    pub fn leaf_count(&self) -> usize {
-        self.leaf_origins.len()
-    }
-
-    pub fn leaf_values(&self, leaf: usize) -> &[f32] {
-        &self.leaf_values[leaf * LEAF_VOXELS..(leaf + 1) * LEAF_VOXELS]
-    }
-
-    pub fn active_voxel_count(&self) -> u64 {
-        let in_leaves: u64 = self
-            .leaf_masks
-            .iter()
-            .flatten()
-            .map(|w| u64::from(w.count_ones()))
-            .sum();
-        let in_tiles: u64 = self
-            .tiles
-            .iter()
-            .filter(|t| t.active)
-            .map(|t| u64::from(t.dim).pow(3))
-            .sum();
-        in_leaves + in_tiles
-    }
 }
 
 /// A handle on an OpenVDB float grid.
@@ -198,7 +117,7 @@ impl Grid {
     pub fn from_data(data: &GridData) -> Result<Self, VdbError> {
         let header = ffi::bridge::GridHeader {
             name: data.name.clone(),
-            grid_class: data.class,
+            grid_class: to_bridge_class(data.class),
             background: data.background,
             matrix: data.transform.matrix,
             uniform_linear: data.uniform_linear,
@@ -209,7 +128,16 @@ impl Grid {
             data.leaf_origins.as_flattened(),
             &data.leaf_values,
             data.leaf_masks.as_flattened(),
-            &data.tiles,
+            &data
+                .tiles
+                .iter()
+                .map(|t| ffi::bridge::Tile {
+                    origin: t.origin,
+                    dim: t.dim,
+                    value: t.value,
+                    active: t.active,
+                })
+                .collect::<Vec<_>>(),
         )
         .map_err(|e| VdbError::Grid(one_line(e.what())))?;
         Grid::from_ptr(ptr)
@@ -220,7 +148,7 @@ impl Grid {
         let header = self.inner.header();
         let n = header.leaf_count;
         out.name = header.name;
-        out.class = header.grid_class;
+        out.class = from_bridge_class(header.grid_class);
         out.background = header.background;
         out.transform = Transform {
             matrix: header.matrix,
@@ -239,7 +167,17 @@ impl Grid {
                 out.leaf_masks.as_flattened_mut(),
             )
             .map_err(|e| VdbError::Grid(one_line(e.what())))?;
-        out.tiles = self.inner.tiles();
+        out.tiles = self
+            .inner
+            .tiles()
+            .into_iter()
+            .map(|t| Tile {
+                origin: t.origin,
+                dim: t.dim,
+                value: t.value,
+                active: t.active,
+            })
+            .collect();
         Ok(())
     }
 
@@ -264,7 +202,7 @@ impl Grid {
     }
 
     pub fn class(&self) -> GridClass {
-        self.inner.header().grid_class
+        from_bridge_class(self.inner.header().grid_class)
     }
 
     pub fn active_voxel_count(&self) -> u64 {
@@ -325,18 +263,6 @@ impl Grid {
             Err(one_line(&report))
         })
     }
-}
-
-/// The background of a narrow band `half_width` voxels of `voxel_size` wide: the smallest
-/// f32 not below `half_width · voxel_size` computed in f64, as OpenVDB's checkLevelSet
-/// compares it (an f32 product can round a hair under 3 voxels and be rejected).
-pub fn narrow_band_background(half_width: f32, voxel_size: f32) -> f32 {
-    let exact = f64::from(half_width) * f64::from(voxel_size);
-    let mut background = exact as f32;
-    while f64::from(background) < exact {
-        background = f32::from_bits(background.to_bits() + 1);
-    }
-    background
 }
 
 /// How one grid is stored by [`write_grids`].
@@ -452,5 +378,24 @@ fn io_reason(e: &std::io::Error) -> String {
         std::io::ErrorKind::NotFound => "no such file".into(),
         std::io::ErrorKind::PermissionDenied => "permission denied".into(),
         _ => e.to_string(),
+    }
+}
+
+/// OpenVDB's grid class as the bridge carries it, in Rust's.
+pub fn from_bridge_class(class: ffi::bridge::GridClass) -> GridClass {
+    match class {
+        ffi::bridge::GridClass::LevelSet => GridClass::LevelSet,
+        ffi::bridge::GridClass::FogVolume => GridClass::FogVolume,
+        ffi::bridge::GridClass::Staggered => GridClass::Staggered,
+        _ => GridClass::Unknown,
+    }
+}
+
+fn to_bridge_class(class: GridClass) -> ffi::bridge::GridClass {
+    match class {
+        GridClass::Unknown => ffi::bridge::GridClass::Unknown,
+        GridClass::LevelSet => ffi::bridge::GridClass::LevelSet,
+        GridClass::FogVolume => ffi::bridge::GridClass::FogVolume,
+        GridClass::Staggered => ffi::bridge::GridClass::Staggered,
     }
 }

@@ -3,6 +3,7 @@
 //! usage), no panic text, no partial output, and the frames written before it intact.
 //! (More cases — missing, empty, NaN, empty grid, non-uniform, fog without --iso, bad
 //! options — are in `cli_skin.rs`, `cli_info.rs`, `cli_particles.rs` and `vdb_points.rs`.)
+#![cfg(feature = "vdb")]
 
 mod common;
 
@@ -12,7 +13,8 @@ use std::process::Command;
 use common::{activeskin, assert_fails, names, Lcg};
 
 use activeskin::target::{sample, Sphere, Target};
-use activeskin::vdb::{self, FileMetadata, Grid, GridData, WriteOptions};
+use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
+use activeskin::volume::GridData;
 use glam::Vec3;
 
 fn sphere(dx: f32) -> GridData {

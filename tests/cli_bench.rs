@@ -1,4 +1,5 @@
 //! `activeskin bench --json` runs ours and OpenVDB side by side and reports every figure.
+#![cfg(feature = "vdb")]
 
 use std::process::Command;
 

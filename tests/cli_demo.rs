@@ -1,4 +1,5 @@
 //! `activeskin demo` (what `make demo` runs) writes its three sequences, whole and valid.
+#![cfg(feature = "vdb")]
 
 use std::process::Command;
 

@@ -1,4 +1,5 @@
 //! `activeskin info`: the report on good files, and one clear line for every bad one.
+#![cfg(feature = "vdb")]
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

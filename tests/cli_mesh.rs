@@ -1,11 +1,13 @@
 //! `activeskin mesh`: our polygonizer on an OpenVDB level set agrees with volumeToMesh and
 //! with the analytic sphere; fog volumes need --iso.
+#![cfg(feature = "vdb")]
 
 use std::path::Path;
 use std::process::Command;
 
 use activeskin::mesh::Mesh;
-use activeskin::vdb::{self, FileMetadata, Grid, GridClass, WriteOptions};
+use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
+use activeskin::volume::GridClass;
 use glam::Vec3;
 
 fn activeskin(args: &[&str]) -> std::process::Output {

@@ -1,9 +1,11 @@
 //! `activeskin morph` end to end: every frame written, readable by OpenVDB as a valid
 //! level set named `surface`, meshes closed; bad arguments give one-line errors.
+#![cfg(feature = "vdb")]
 
 use std::process::Command;
 
-use activeskin::vdb::{self, Grid, GridClass};
+use activeskin::vdb::{self, Grid};
+use activeskin::volume::GridClass;
 
 fn activeskin(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_activeskin"))
@@ -46,7 +48,10 @@ fn morph_writes_valid_level_sets_and_meshes() {
         let grids = vdb::list_grids(&path).unwrap();
         assert_eq!(grids.len(), 1);
         assert_eq!(grids[0].name, "surface");
-        assert_eq!(grids[0].grid_class, GridClass::LevelSet);
+        assert_eq!(
+            activeskin::vdb::from_bridge_class(grids[0].grid_class),
+            GridClass::LevelSet
+        );
         let grid = Grid::read(&path, None).unwrap();
         assert_eq!(grid.check_level_set().unwrap(), Ok(()), "frame {frame}");
         let ply = std::fs::read(dir.path().join(format!("skin.{frame:04}.ply"))).unwrap();

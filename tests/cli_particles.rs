@@ -1,5 +1,6 @@
 //! `activeskin particles`: on a static cloud the skin settles within a voxel of the
 //! iso-density surface; broken particle files stop the run with one line naming them.
+#![cfg(feature = "vdb")]
 
 use std::path::Path;
 use std::process::Command;
@@ -93,7 +94,7 @@ fn static_cloud_skin_sits_on_the_iso_density_surface() {
         .to_data()
         .unwrap();
     assert_eq!(fog.name, "density");
-    assert_eq!(fog.class, activeskin::vdb::GridClass::FogVolume);
+    assert_eq!(fog.class, activeskin::volume::GridClass::FogVolume);
     let max = fog.leaf_values.iter().copied().fold(0.0f32, f32::max);
     assert!(
         max > iso && fog.background == 0.0,

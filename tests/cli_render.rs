@@ -1,5 +1,6 @@
 //! `activeskin render`: a multi-layer EXR whose layers say what they should about a sphere,
 //! and a PNG.
+#![cfg(feature = "vdb")]
 
 use std::process::Command;
 

@@ -2,6 +2,7 @@
 //! every frame written and valid, the skin on target, splits seen, stats as JSON lines,
 //! `--resume` equal to an uninterrupted run, and bad input reported in one line with
 //! nothing lost.
+#![cfg(feature = "vdb")]
 
 mod common;
 
@@ -12,7 +13,8 @@ use common::{activeskin, assert_fails, stderr};
 
 use activeskin::mesh::Mesh;
 use activeskin::target::{sample, Sphere, Target};
-use activeskin::vdb::{self, FileMetadata, Grid, GridClass, GridData, WriteOptions};
+use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
+use activeskin::volume::{GridClass, GridData};
 use glam::Vec3;
 
 const DATA_DX: f64 = 1.0 / 16.0;

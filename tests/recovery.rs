@@ -1,6 +1,7 @@
 //! Recovery (issue 7): a sequence killed with SIGKILL at random moments — while starting,
 //! stepping or writing — and resumed each time ends with the same last frame, bit for
 //! bit, as an uninterrupted run; every frame on disk is whole; no temporary file is left.
+#![cfg(feature = "vdb")]
 
 mod common;
 

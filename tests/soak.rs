@@ -5,6 +5,7 @@
 //! the first half, give or take), the process's memory must stay flat, and χ must stay
 //! consistent with the component count. `cargo test --release --test soak -- --ignored
 //! --nocapture` (about a minute on 2 cores).
+#![cfg(feature = "vdb")]
 
 mod common;
 

@@ -3,6 +3,7 @@
 //! LevelSetMeasure (0.5 %), checkLevelSet on every grid we write. Features are resolved by
 //! at least 16 voxels: both meshes' discretisation error grows as (Δx/r)², and below that
 //! they drift apart by more than 0.5 % (see README).
+#![cfg(feature = "vdb")]
 
 use activeskin::skin::{Skin, SkinParams, SpeedParams};
 use activeskin::target::{sample, Blobs, Sphere, Target, Torus, Union};

@@ -1,9 +1,11 @@
 //! The OpenVDB bridge: grids cross both ways without losing a bit, and OpenVDB's tools
 //! (volumeToMesh, LevelSetMeasure, checkLevelSet) answer through it.
+#![cfg(feature = "vdb")]
 
 use std::f64::consts::PI;
 
-use activeskin::vdb::{self, FileMetadata, Grid, GridClass, GridData, Transform, WriteOptions};
+use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
+use activeskin::volume::{GridClass, GridData, Transform};
 
 fn metadata() -> FileMetadata {
     FileMetadata {
@@ -150,7 +152,10 @@ fn several_grids_in_one_file() {
     let grids = vdb::list_grids(&path).unwrap();
     let names: Vec<_> = grids.iter().map(|g| g.name.as_str()).collect();
     assert_eq!(names, ["surface", "second"]);
-    assert_eq!(grids[1].grid_class, GridClass::FogVolume);
+    assert_eq!(
+        activeskin::vdb::from_bridge_class(grids[1].grid_class),
+        GridClass::FogVolume
+    );
     assert_eq!(grids[1].voxel_size, [0.05f32 as f64; 3]);
     let second = Grid::read(&path, Some("second"))
         .unwrap()

@@ -1,6 +1,7 @@
 //! OpenVDB point data grids as particle frames: positions (16-bit fixed point relative to
 //! their voxel, as Houdini writes them) and `pscale` come back through the bridge; files
 //! without points or cut short are one-line errors; `activeskin particles` skins them.
+#![cfg(feature = "vdb")]
 
 mod common;
 

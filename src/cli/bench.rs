@@ -7,7 +7,6 @@ use activeskin::grid::Fixed16;
 use activeskin::grid::SparseGrid;
 use activeskin::mesh::Mesh;
 use activeskin::polygonize::{Crossings, IndexToWorld, Polygonizer};
-use activeskin::skin::band;
 use activeskin::skin::{Skin, SkinParams, SpeedParams};
 use activeskin::target::{iso_for_radius, sample, Blobs, Density, Sphere, Target, Torus, Union};
 use activeskin::validate;
@@ -100,7 +99,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let data = source.to_data()?;
     let scale = data.background;
     let mut band: SparseGrid<f32> = SparseGrid::from_vdb(&data, |phi| phi / scale);
-    band::upkeep(&mut band);
+    activeskin::grid::tube::upkeep(&mut band);
     let xf = IndexToWorld {
         origin: Vec3::ZERO,
         dx,

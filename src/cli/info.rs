@@ -3,7 +3,8 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use activeskin::vdb::{self, GridClass, GridSummary};
+use activeskin::vdb::{self, GridSummary};
+use activeskin::volume::GridClass;
 
 pub fn run(files: &[PathBuf]) -> anyhow::Result<()> {
     // Describe every file before failing, so one bad file does not hide the others.
@@ -64,7 +65,11 @@ pub fn describe(path: &Path, grids: &[GridSummary]) -> String {
     for g in grids {
         let _ = writeln!(s, "grid '{}'", g.name);
         let _ = writeln!(s, "  value type     {}", g.value_type);
-        let _ = writeln!(s, "  class          {}", class_name(g.grid_class));
+        let _ = writeln!(
+            s,
+            "  class          {}",
+            class_name(activeskin::vdb::from_bridge_class(g.grid_class))
+        );
         let [x, y, z] = g.voxel_size;
         let voxel = if x == y && y == z {
             number(x)

@@ -4,7 +4,8 @@
 use std::path::PathBuf;
 
 use activeskin::polygonize::mesh_vdb;
-use activeskin::vdb::{Grid, GridClass};
+use activeskin::vdb::Grid;
+use activeskin::volume::GridClass;
 
 use super::skin::check_usable;
 

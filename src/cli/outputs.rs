@@ -10,7 +10,8 @@ use activeskin::render::{self, View};
 use activeskin::sequence::FramePattern;
 use activeskin::skin::{AnySkin, SkinParams, SpeedParams, StepStats};
 use activeskin::target::{Aabb, LevelSetTarget, Target};
-use activeskin::vdb::{self, FileMetadata, Grid, GridData, WriteOptions};
+use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
+use activeskin::volume::GridData;
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 

@@ -7,7 +7,8 @@ use std::time::Instant;
 use activeskin::sequence::{parse_range, FramePattern};
 use activeskin::skin::AnySkin;
 use activeskin::target::{FogTarget, LevelSetTarget, Target};
-use activeskin::vdb::{Grid, GridClass, GridData};
+use activeskin::vdb::Grid;
+use activeskin::volume::{GridClass, GridData};
 use anyhow::{bail, Context};
 
 use super::outputs::{OutputArgs, Outputs, PhysicsArgs};

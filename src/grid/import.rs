@@ -4,7 +4,7 @@ use glam::IVec3;
 use hashbrown::HashSet;
 
 use super::{Potential, SparseGrid, BLOCK_DIM};
-use crate::vdb::GridData;
+use crate::volume::GridData;
 
 impl<P: Potential> SparseGrid<P> {
     /// One block per leaf, in coordinate order (so that two imports of the same data are

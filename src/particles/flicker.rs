@@ -6,11 +6,11 @@
 
 use glam::Vec3;
 
+use crate::mesh::mean_distance;
 use crate::mesh::Mesh;
 use crate::polygonize::mesh_vdb;
 use crate::skin::{Skin, SkinParams, SpeedParams};
 use crate::target::{iso_for_radius, Density, Target};
-use crate::validate::mean_distance;
 
 /// Flicker and error of both surfaces, in voxels, over the settled frames.
 #[derive(Debug, Clone, Copy)]

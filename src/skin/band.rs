@@ -1,112 +1,13 @@
-//! Upkeep of the tube of active nodes (paper §4.1, §4.5): wake, retire, renormalise.
+//! The band tracker (paper §4.1, §4.5): keeps the potential a scaled distance in the tube
+//! (renormalisation), re-distances it for export, starts it. The tube's own upkeep (wake,
+//! retire) is the grid's: [`crate::grid::tube`].
 
 use glam::IVec3;
 use rayon::prelude::*;
 
 use crate::grid::{
-    node_offset, offset_coords, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES, HALO_DIM,
+    node_offset, offset_coords, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES,
 };
-
-#[inline]
-fn in_band(f: f32) -> bool {
-    f.abs() < 1.0
-}
-
-/// After an update: every node with |f| < 1 gets its six neighbours stored (a woken node
-/// starts at its tile's side, ±1); the active set becomes those nodes and their
-/// neighbours; blocks left with no active node retire into inside / outside tiles.
-pub fn upkeep<P: Potential>(grid: &mut SparseGrid<P>) {
-    // Which face neighbours each block needs: bit 2·axis for −, 2·axis + 1 for +.
-    let wake: Vec<(IVec3, u8)> = grid
-        .blocks()
-        .par_iter()
-        .map(|block| (block.coord, faces_in_band(&block.values)))
-        .collect();
-    for (coord, faces) in wake {
-        for axis in 0..3 {
-            for (bit, step) in [(2 * axis, -1), (2 * axis + 1, 1)] {
-                if faces >> bit & 1 == 1 {
-                    grid.touch(coord + IVec3::AXES[axis] * step);
-                }
-            }
-        }
-    }
-
-    let masks: Vec<[u64; 8]> = grid
-        .blocks()
-        .par_iter()
-        .map_init(Box::<Halo>::default, |halo, block| {
-            halo.gather(grid, block.coord);
-            dilated_band(halo)
-        })
-        .collect();
-    for (block, mask) in grid.blocks_mut().iter_mut().zip(masks) {
-        block.active = mask;
-    }
-    grid.retire_blocks(|b| b.active_count() == 0);
-}
-
-/// In-band bits of a run of values along z: bit k for value k.
-#[inline]
-fn band_bits<P: Potential>(values: &[P]) -> u16 {
-    values
-        .iter()
-        .enumerate()
-        .fold(0, |bits, (k, v)| bits | u16::from(in_band(v.to_f32())) << k)
-}
-
-/// The faces of a block (bit 2·axis: low side, 2·axis + 1: high side) holding a node in
-/// the band.
-fn faces_in_band<P: Potential>(values: &[P; BLOCK_NODES]) -> u8 {
-    const LOW: u16 = 1;
-    const HIGH: u16 = 1 << (BLOCK_DIM - 1);
-    let mut faces = 0u8;
-    for x in 0..BLOCK_DIM {
-        for y in 0..BLOCK_DIM {
-            let start = node_offset(x, y, 0);
-            let row = band_bits(&values[start..start + BLOCK_DIM as usize]);
-            if row == 0 {
-                continue;
-            }
-            faces |= u8::from(x == 0)
-                | u8::from(x == BLOCK_DIM - 1) << 1
-                | u8::from(y == 0) << 2
-                | u8::from(y == BLOCK_DIM - 1) << 3
-                | u8::from(row & LOW != 0) << 4
-                | u8::from(row & HIGH != 0) << 5;
-        }
-    }
-    faces
-}
-
-/// The active mask of a block: its nodes in the band or with a face neighbour in it,
-/// as bit rows along z (mask word x, bit 8·y + z, matching the node offsets).
-fn dilated_band(halo: &Halo) -> [u64; 8] {
-    const ROWS: usize = HALO_DIM;
-    let mut rows = [[0u16; ROWS]; ROWS];
-    for (hx, plane) in rows.iter_mut().enumerate() {
-        for (hy, row) in plane.iter_mut().enumerate() {
-            let start = Halo::index(hx as i32 - 1, hy as i32 - 1, -1);
-            *row = band_bits(&halo.values[start..start + ROWS]);
-        }
-    }
-    let mut mask = [0u64; 8];
-    for (x, word) in mask.iter_mut().enumerate() {
-        for y in 0..BLOCK_DIM as usize {
-            let (i, j) = (x + 1, y + 1);
-            let r = rows[i][j];
-            let near = r
-                | r << 1
-                | r >> 1
-                | rows[i - 1][j]
-                | rows[i + 1][j]
-                | rows[i][j - 1]
-                | rows[i][j + 1];
-            *word |= u64::from((near >> 1) & 0xFF) << (8 * y);
-        }
-    }
-    mask
-}
 
 // Node offsets and axes are coordinates here, not just indices.
 #[allow(clippy::needless_range_loop)]
@@ -241,55 +142,7 @@ pub fn fill<P: Potential>(grid: &mut SparseGrid<P>, value: impl Fn(IVec3) -> f32
 
 #[cfg(test)]
 mod tests {
-    use super::{dilated_band, faces_in_band, godunov, in_band};
-    use crate::grid::{node_offset, offset_coords, Halo, BLOCK_NODES};
-    use glam::IVec3;
-
-    /// A repeatable pseudo-random potential in [-1.5, 1.5], a third of it in the band.
-    fn scattered(seed: u64) -> impl FnMut() -> f32 {
-        let mut state = seed;
-        move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 40) as f32 / (1u64 << 24) as f32) * 3.0 - 1.5
-        }
-    }
-
-    #[test]
-    fn bit_row_dilation_matches_the_node_by_node_rule() {
-        for seed in 0..20 {
-            let mut next = scattered(seed);
-            let mut halo = Halo::default();
-            halo.values.iter_mut().for_each(|v| *v = next());
-            let mask = dilated_band(&halo);
-            for offset in 0..BLOCK_NODES {
-                let l = offset_coords(offset);
-                let at = |p: IVec3| in_band(halo.at(p.x, p.y, p.z));
-                let near = at(l) || IVec3::AXES.iter().any(|&e| at(l - e) || at(l + e));
-                assert_eq!(mask[offset >> 6] >> (offset & 63) & 1 == 1, near, "{l}");
-            }
-        }
-    }
-
-    #[test]
-    fn faces_in_band_names_each_touched_face() {
-        for (l, face) in [
-            (IVec3::new(0, 3, 3), 0),
-            (IVec3::new(7, 3, 3), 1),
-            (IVec3::new(3, 0, 3), 2),
-            (IVec3::new(3, 7, 3), 3),
-            (IVec3::new(3, 3, 0), 4),
-            (IVec3::new(3, 3, 7), 5),
-        ] {
-            let mut values = [1.0f32; BLOCK_NODES];
-            values[node_offset(l.x, l.y, l.z)] = 0.2;
-            assert_eq!(faces_in_band(&values), 1 << face, "{l}");
-        }
-        let mut values = [-1.0f32; BLOCK_NODES];
-        values[node_offset(3, 4, 5)] = 0.0;
-        assert_eq!(faces_in_band(&values), 0);
-    }
+    use super::godunov;
 
     #[test]
     fn godunov_solves_the_eikonal_update() {

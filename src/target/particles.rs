@@ -7,7 +7,7 @@ use glam::{IVec3, Vec3};
 use hashbrown::{HashMap, HashSet};
 use rayon::prelude::*;
 
-use crate::vdb::{GridClass, GridData, Transform, LEAF_VOXELS, MASK_WORDS};
+use crate::volume::{GridClass, GridData, Transform, LEAF_VOXELS, MASK_WORDS};
 
 use super::{Aabb, Target};
 

@@ -4,13 +4,13 @@ use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
 use super::Target;
-use crate::vdb::{GridClass, GridData, Tile, Transform, LEAF_VOXELS, MASK_WORDS};
+use crate::volume::{GridClass, GridData, Tile, Transform, LEAF_VOXELS, MASK_WORDS};
 
 /// The target's distance on voxels of `dx` (origin at world zero), active within
 /// `half_width` voxels of the surface, clamped to ± the background `half_width·dx`
 /// beyond; blocks wholly inside become inactive tiles. Exact where the target's distance is.
 pub fn level_set(target: &dyn Target, dx: f32, half_width: f32) -> GridData {
-    let background = crate::vdb::narrow_band_background(half_width, dx);
+    let background = crate::volume::narrow_band_background(half_width, dx);
     let bounds = target.bounds().padded(background + 2.0 * dx);
     let leaf = 8.0 * dx;
     let lo = (bounds.min / leaf).floor().as_ivec3() - IVec3::ONE;

@@ -2,7 +2,7 @@
 //! with an iso value.
 
 use super::{density_distance, Aabb, Target};
-use crate::vdb::{GridData, LEAF_VOXELS};
+use crate::volume::{GridData, LEAF_VOXELS};
 use glam::{IVec3, Mat3, Vec3};
 use hashbrown::HashMap;
 

@@ -1,0 +1,116 @@
+//! A VDB grid's content in plain Rust, leaf by leaf in OpenVDB's own layout: what the core
+//! imports targets from and exports skins to, and what the bridge ([`crate::vdb`], feature
+//! `vdb`) copies to and from OpenVDB with one copy of 512 values and 8 mask words per leaf.
+
+/// Voxels per leaf (8³), in OpenVDB's order: offset = (x & 7) << 6 | (y & 7) << 3 | (z & 7).
+pub const LEAF_VOXELS: usize = 512;
+/// Words of a leaf's active mask; bit `offset % 64` of word `offset / 64`.
+pub const MASK_WORDS: usize = 8;
+
+/// OpenVDB's `GridClass`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GridClass {
+    Unknown,
+    LevelSet,
+    FogVolume,
+    Staggered,
+}
+
+/// A constant region of the tree above leaf level: 8³ (level 1), 128³ (level 2) or 4096³
+/// (root) voxels. Inactive tiles are what keep inside and outside apart.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tile {
+    pub origin: [i32; 3],
+    pub dim: u32,
+    pub value: f32,
+    pub active: bool,
+}
+
+/// An affine index-to-world map, row-major in OpenVDB's row-vector convention
+/// (world = [i j k 1] · M).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transform {
+    pub matrix: [f64; 16],
+}
+
+impl Transform {
+    /// Voxels of side `voxel_size` with index (0,0,0) centred at `origin`.
+    pub fn uniform(voxel_size: f64, origin: [f64; 3]) -> Self {
+        let d = voxel_size;
+        #[rustfmt::skip]
+        let matrix = [
+            d, 0.0, 0.0, 0.0,
+            0.0, d, 0.0, 0.0,
+            0.0, 0.0, d, 0.0,
+            origin[0], origin[1], origin[2], 1.0,
+        ];
+        Transform { matrix }
+    }
+
+    /// Length of one index step along x, in world units.
+    pub fn voxel_size(&self) -> f64 {
+        let m = &self.matrix;
+        (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt()
+    }
+
+    pub fn index_to_world(&self, ijk: [f64; 3]) -> [f64; 3] {
+        let m = &self.matrix;
+        std::array::from_fn(|c| ijk[0] * m[c] + ijk[1] * m[4 + c] + ijk[2] * m[8 + c] + m[12 + c])
+    }
+}
+
+/// A float grid copied into Rust, leaf by leaf.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GridData {
+    pub name: String,
+    pub class: GridClass,
+    pub background: f32,
+    pub transform: Transform,
+    /// True when the transform is linear with one scale on all axes.
+    pub uniform_linear: bool,
+    pub leaf_origins: Vec<[i32; 3]>,
+    /// `LEAF_VOXELS` values per leaf, leaves in the order of `leaf_origins`.
+    pub leaf_values: Vec<f32>,
+    pub leaf_masks: Vec<[u64; MASK_WORDS]>,
+    /// Constant regions above leaf level; inactive tiles equal to the background are
+    /// implied and left out.
+    pub tiles: Vec<Tile>,
+}
+
+impl GridData {
+    pub fn leaf_count(&self) -> usize {
+        self.leaf_origins.len()
+    }
+
+    pub fn leaf_values(&self, leaf: usize) -> &[f32] {
+        &self.leaf_values[leaf * LEAF_VOXELS..(leaf + 1) * LEAF_VOXELS]
+    }
+
+    pub fn active_voxel_count(&self) -> u64 {
+        let in_leaves: u64 = self
+            .leaf_masks
+            .iter()
+            .flatten()
+            .map(|w| u64::from(w.count_ones()))
+            .sum();
+        let in_tiles: u64 = self
+            .tiles
+            .iter()
+            .filter(|t| t.active)
+            .map(|t| u64::from(t.dim).pow(3))
+            .sum();
+        in_leaves + in_tiles
+    }
+}
+
+/// The background of a narrow band `half_width` voxels of `voxel_size` wide: the smallest
+/// f32 not below `half_width · voxel_size` computed in f64, as OpenVDB's checkLevelSet
+/// compares it (an f32 product can round a hair under 3 voxels and be rejected).
+pub fn narrow_band_background(half_width: f32, voxel_size: f32) -> f32 {
+    let exact = f64::from(half_width) * f64::from(voxel_size);
+    let mut background = exact as f32;
+    while f64::from(background) < exact {
+        background = f32::from_bits(background.to_bits() + 1);
+    }
+    background
+}
