@@ -136,6 +136,30 @@ fn point_triangle_distance(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
     p.distance(a + ab * (vb * denom) + ac * (vc * denom))
 }
 
+/// Symmetric Hausdorff distance between two meshes (world units), searched through a
+/// hashed grid of triangles with cells of `cell`: distances beyond two cells are reported
+/// as found among the triangles within two cells, or as infinite.
+pub fn hausdorff(a: &Mesh, b: &Mesh, cell: f32) -> f64 {
+    let max = |d: Vec<f64>| d.into_iter().fold(0.0, f64::max);
+    max(distances(a, b, cell)).max(max(distances(b, a, cell)))
+}
+
+/// Mean distance from the vertices of `from` to the surface of `to` (world units),
+/// searched as in [`hausdorff`].
+pub fn mean_distance(from: &Mesh, to: &Mesh, cell: f32) -> f64 {
+    let d = distances(from, to, cell);
+    d.iter().sum::<f64>() / d.len().max(1) as f64
+}
+
+/// Distance from each vertex of `from` to the triangles of `to`.
+fn distances(from: &Mesh, to: &Mesh, cell: f32) -> Vec<f64> {
+    let index = TriangleIndex::new(to, cell);
+    from.positions
+        .par_iter()
+        .map(|&p| f64::from(index.distance(p, 2)))
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::{point_triangle_distance, TriangleIndex};
@@ -193,28 +217,4 @@ mod tests {
         assert!((d(Vec3::new(1.0, 1.0, 0.0)) - 0.5f32.sqrt()).abs() < 1e-6); // edge bc
         assert!((d(Vec3::new(3.0, 0.0, 0.0)) - 2.0).abs() < 1e-6); // vertex b
     }
-}
-
-/// Symmetric Hausdorff distance between two meshes (world units), searched through a
-/// hashed grid of triangles with cells of `cell`: distances beyond two cells are reported
-/// as found among the triangles within two cells, or as infinite.
-pub fn hausdorff(a: &Mesh, b: &Mesh, cell: f32) -> f64 {
-    let max = |d: Vec<f64>| d.into_iter().fold(0.0, f64::max);
-    max(distances(a, b, cell)).max(max(distances(b, a, cell)))
-}
-
-/// Mean distance from the vertices of `from` to the surface of `to` (world units),
-/// searched as in [`hausdorff`].
-pub fn mean_distance(from: &Mesh, to: &Mesh, cell: f32) -> f64 {
-    let d = distances(from, to, cell);
-    d.iter().sum::<f64>() / d.len().max(1) as f64
-}
-
-/// Distance from each vertex of `from` to the triangles of `to`.
-fn distances(from: &Mesh, to: &Mesh, cell: f32) -> Vec<f64> {
-    let index = TriangleIndex::new(to, cell);
-    from.positions
-        .par_iter()
-        .map(|&p| f64::from(index.distance(p, 2)))
-        .collect()
 }
