@@ -7,12 +7,12 @@ macro_rules! usage {
     };
 }
 
+mod args;
 mod bench;
 mod demo;
 mod info;
 mod mesh;
 mod morph;
-mod outputs;
 mod particles;
 mod render;
 mod skin;
@@ -95,11 +95,12 @@ pub fn run() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("activeskin: error: {e:#}");
-            ExitCode::from(if e.downcast_ref::<Usage>().is_some() {
-                2
-            } else {
-                1
-            })
+            let usage = e.downcast_ref::<Usage>().is_some()
+                || matches!(
+                    e.downcast_ref::<activeskin::frames::FrameError>(),
+                    Some(activeskin::frames::FrameError::Usage(_))
+                );
+            ExitCode::from(if usage { 2 } else { 1 })
         }
     }
 }

@@ -4,19 +4,39 @@
 //! block-sparse grid whose zero isosurface is attracted to a target (VDB level set or fog
 //! volume, particles, analytic shape) while behaving like a membrane with surface tension.
 //!
-//! Files come and go through OpenVDB ([`vdb`]):
+//! Layers, arrows pointing down only:
 //!
-//! ```no_run
-//! use activeskin::vdb::{self, Grid, WriteOptions, FileMetadata};
-//! # fn main() -> Result<(), activeskin::Error> {
-//! let sphere = Grid::level_set_sphere(1.0, [0.0; 3], 0.05, 3.0)?;
-//! let data = sphere.to_data()?; // leaf by leaf, in Rust
-//! let back = Grid::from_data(&data)?;
-//! let meta = FileMetadata { creator: "activeskin".into(), has_frame: true, frame: 1 };
-//! vdb::write_grids("sphere.0001.vdb".as_ref(), &[(&back, WriteOptions::default())], &meta)?;
-//! # Ok(()) }
+//! - **core**, pure Rust, built and tested without OpenVDB (`--no-default-features`):
+//!   [`grid`] (§4.1–4.2), [`stencil`] (§4.4), [`skin`] (§4.3, §4.5, §4.7–4.8, §5),
+//!   [`polygonize`] (§3.2, §4.6), [`mesh`], [`target`] (§3.4, and the particle density of
+//!   §6.1), [`volume`] (a VDB grid's plain data), [`particles`], [`render`];
+//! - **I/O**, with the default feature `vdb`: [`vdb`] (OpenVDB through the C++ bridge),
+//!   [`sequence`] (frame patterns), [`io`] (atomic writes), [`validate`];
+//! - **the frame loop**, [`frames`]: inputs, advance, canonical state, outputs, resume;
+//! - the command line on top (the `activeskin` binary).
+//!
+//! A skin morphing a sphere into a torus, its mesh a clean surface:
+//!
+//! ```
+//! use activeskin::skin::{Skin, SkinParams, SpeedParams};
+//! use activeskin::target::{Sphere, Torus};
+//! use glam::Vec3;
+//!
+//! let dx = 1.0 / 24.0;
+//! let params = SkinParams { dx, speed: SpeedParams::default_for(dx), ..SkinParams::default() };
+//! let sphere = Sphere { center: Vec3::ZERO, radius: 0.5 };
+//! let torus = Torus { center: Vec3::ZERO, major: 0.5, minor: 0.2 };
+//! let mut skin: Skin<f32> = Skin::new(&sphere, params);
+//! for _frame in 0..48 {
+//!     skin.advance(&torus, 1.0 / 24.0); // one frame at 24 fps
+//! }
+//! let check = skin.mesh().check();
+//! assert!(check.is_clean(), "{check}");
+//! assert_eq!(skin.mesh().euler_characteristic(), 0); // a torus
 //! ```
 
+#[cfg(feature = "vdb")]
+pub mod frames;
 pub mod grid;
 pub mod io;
 pub mod mesh;

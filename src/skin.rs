@@ -5,22 +5,22 @@
 //! §4.1/§4.5 [`band`], §4.2 [`crate::grid`], §4.4 [`crate::stencil`], §4.7 [`Skin::step`],
 //! §4.8 [`timestep`].
 
+mod any;
 pub mod band;
+mod export;
 pub mod speed;
 pub mod timestep;
 
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
-use crate::grid::{
-    offset_coords, Fixed16, Halo, Potential, Precision, SparseGrid, BLOCK_DIM, BLOCK_NODES,
-};
-use crate::mesh::{Mesh, TriangleIndex};
+use crate::grid::{offset_coords, Halo, Potential, Precision, SparseGrid, BLOCK_DIM, BLOCK_NODES};
+use crate::mesh::Mesh;
 use crate::polygonize::{Crossings, IndexToWorld, Polygonizer};
 use crate::stencil::Stencil;
 use crate::target::Target;
-use crate::volume::{GridClass, GridData, Tile, Transform, MASK_WORDS};
 
+pub use any::AnySkin;
 pub use speed::{AttractionSample, SpeedParams};
 
 /// How the skin is discretised and advanced.
@@ -256,8 +256,8 @@ impl<P: Potential> Skin<P> {
         )
     }
 
-    /// Pass 1 (read-only): ∂f/∂t at every active node. Returns the largest |V| among
-    /// nodes in the band, for the CFL bound.
+    /// Pass 1 (read-only): ∂f/∂t at every active node. Returns the largest |V| without
+    /// tension among nodes in the band, for the CFL bound.
     fn compute_rates(&mut self, target: &dyn Target) -> f32 {
         // G at each crossing point of the last mesh: one target evaluation each.
         let positions = self.crossings.points();
@@ -308,7 +308,7 @@ impl<P: Potential> Skin<P> {
                         crossing_distance,
                         target,
                     );
-                    let v = speed::normal_speed(
+                    let (v, advective) = speed::normal_speed(
                         &params.speed,
                         &global,
                         d,
@@ -318,7 +318,7 @@ impl<P: Potential> Skin<P> {
                     // ∂φ/∂t = −V|∇φ| with φ = f·wΔx and ∇ in index units, upwind.
                     rates[offset] = -v * stencil.upwind_gradient_norm(v > 0.0) / params.dx;
                     if stencil.center().abs() < 1.0 {
-                        v_max = v_max.max(v.abs());
+                        v_max = v_max.max(advective.abs());
                     }
                 }
                 v_max
@@ -368,94 +368,6 @@ impl<P: Potential> Skin<P> {
         (self.area, self.volume) = self.mesh.area_and_volume();
     }
 
-    /// The skin as a narrow-band level set: signed distance φ = f·wΔx in world units,
-    /// active where |φ| < wΔx, background wΔx, inside tiles at −wΔx (grid `surface`).
-    /// The nodes next to the skin are re-distanced from its mesh first: the solver keeps
-    /// their values (they define the skin), which are not a distance in a thin neck, where
-    /// checkLevelSet would flag them.
-    pub fn to_level_set(&self) -> GridData {
-        let dx = self.params.dx;
-        let w = self.params.band_width;
-        let background = self.background();
-        let mut grid = self.grid.clone();
-        let index = TriangleIndex::new(&self.mesh, dx);
-        band::redistance(
-            &mut grid,
-            w,
-            |ijk, bound| {
-                index.distance_within(self.xf.apply(ijk.as_vec3()), 1.001 * bound * dx) / dx
-            },
-            &mut Vec::new(),
-        );
-        let blocks = grid.blocks();
-        let mut data = GridData {
-            name: "surface".into(),
-            class: GridClass::LevelSet,
-            background,
-            transform: Transform::uniform(f64::from(dx), self.xf.origin.as_dvec3().to_array()),
-            uniform_linear: true,
-            leaf_origins: Vec::with_capacity(blocks.len()),
-            leaf_values: Vec::with_capacity(blocks.len() * BLOCK_NODES),
-            leaf_masks: Vec::with_capacity(blocks.len()),
-            tiles: Vec::new(),
-        };
-        for block in blocks {
-            data.leaf_origins.push((block.coord * BLOCK_DIM).to_array());
-            let mut mask = [0u64; MASK_WORDS];
-            for (offset, v) in block.values.iter().enumerate() {
-                let f = v.to_f32();
-                data.leaf_values.push(if f.abs() >= 1.0 {
-                    f.signum() * background
-                } else {
-                    f * background
-                });
-                if f.abs() < 1.0 {
-                    mask[offset >> 6] |= 1 << (offset & 63);
-                }
-            }
-            data.leaf_masks.push(mask);
-        }
-        let mut inside: Vec<IVec3> = grid.inside_tiles().iter().copied().collect();
-        inside.sort_unstable_by_key(|c| c.to_array());
-        data.tiles = inside
-            .into_iter()
-            .map(|c| Tile {
-                origin: (c * BLOCK_DIM).to_array(),
-                dim: BLOCK_DIM as u32,
-                value: -background,
-                active: false,
-            })
-            .collect();
-        data
-    }
-
-    /// Replaces the potential by a level set as [`Skin::to_level_set`] writes it (same
-    /// voxel size, origin at world zero), then rebuilds the tube and the mesh. `--resume`
-    /// reads the last frame back this way; an uninterrupted run restores each frame it
-    /// writes too, so that both runs go on from the same state, bit for bit.
-    pub fn restore(&mut self, data: &GridData) -> Result<(), SkinError> {
-        let dx = f64::from(self.params.dx);
-        let found = data.transform.voxel_size();
-        let origin = data.transform.index_to_world([0.0; 3]);
-        if !data.uniform_linear || (found - dx).abs() > 1e-9 * dx || origin != [0.0; 3] {
-            return Err(SkinError::Incompatible(format!(
-                "grid '{}' has voxel size {found} and origin {origin:?}, the skin {dx} at the world origin",
-                data.name
-            )));
-        }
-        let scale = self.background();
-        self.grid = SparseGrid::from_vdb(data, |phi| phi / scale);
-        crate::grid::tube::upkeep(&mut self.grid);
-        self.grid.shrink_to_fit();
-        self.polygonize();
-        Ok(())
-    }
-
-    /// The exported level set's background, w·Δx: the world distance of f = 1.
-    fn background(&self) -> f32 {
-        crate::volume::narrow_band_background(self.params.band_width, self.params.dx)
-    }
-
     /// Sets the clock (seconds), e.g. after [`Skin::restore`].
     pub fn set_time(&mut self, time: f64) {
         self.time = time;
@@ -497,55 +409,4 @@ fn max_change<P: Potential>(before: &SparseGrid<P>, after: &SparseGrid<P>, band_
 pub enum SkinError {
     #[error("cannot restore the skin: {0}")]
     Incompatible(String),
-}
-
-/// A skin whose storage was chosen at run time.
-pub enum AnySkin {
-    F32(Skin<f32>),
-    Fixed16(Skin<Fixed16>),
-}
-
-macro_rules! each {
-    ($self:expr, $s:ident => $body:expr) => {
-        match $self {
-            AnySkin::F32($s) => $body,
-            AnySkin::Fixed16($s) => $body,
-        }
-    };
-}
-
-impl AnySkin {
-    pub fn new(start: &dyn Target, params: SkinParams) -> Self {
-        match params.precision {
-            Precision::F32 => AnySkin::F32(Skin::new(start, params)),
-            Precision::Fixed16 => AnySkin::Fixed16(Skin::new(start, params)),
-        }
-    }
-    pub fn advance(&mut self, target: &dyn Target, duration: f64) -> StepStats {
-        each!(self, s => s.advance(target, duration))
-    }
-    pub fn stats(&self) -> StepStats {
-        each!(self, s => s.stats())
-    }
-    pub fn mesh(&self) -> &Mesh {
-        each!(self, s => s.mesh())
-    }
-    pub fn to_level_set(&self) -> GridData {
-        each!(self, s => s.to_level_set())
-    }
-    pub fn time(&self) -> f64 {
-        each!(self, s => s.time())
-    }
-    pub fn memory_bytes(&self) -> usize {
-        each!(self, s => s.memory_bytes())
-    }
-    pub fn set_speed(&mut self, speed: SpeedParams) {
-        each!(self, s => s.set_speed(speed))
-    }
-    pub fn restore(&mut self, data: &GridData) -> Result<(), SkinError> {
-        each!(self, s => s.restore(data))
-    }
-    pub fn set_time(&mut self, time: f64) {
-        each!(self, s => s.set_time(time))
-    }
 }

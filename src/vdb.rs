@@ -1,9 +1,22 @@
 //! Reading and writing OpenVDB files through the C++ bridge ([`ffi`]).
 //!
-//! A [`Grid`] is a handle on an OpenVDB `FloatGrid` living on the C++ side; [`GridData`] is
+//! A [`Grid`] is a handle on an OpenVDB `FloatGrid` living on the C++ side; [`crate::volume::GridData`] is
 //! its Rust copy, leaf by leaf, in OpenVDB's own layout so that the transfer is a copy of
 //! 512 values and 8 mask words per leaf. Tiles above leaf level (wholly inside / outside
 //! regions of a level set) travel too, so nothing is lost either way.
+//!
+//! Files come and go through OpenVDB:
+//!
+//! ```no_run
+//! use activeskin::vdb::{self, Grid, WriteOptions, FileMetadata};
+//! # fn main() -> Result<(), activeskin::Error> {
+//! let sphere = Grid::level_set_sphere(1.0, [0.0; 3], 0.05, 3.0)?;
+//! let data = sphere.to_data()?; // leaf by leaf, in Rust
+//! let back = Grid::from_data(&data)?;
+//! let meta = FileMetadata { creator: "activeskin".into(), has_frame: true, frame: 1 };
+//! vdb::write_grids("sphere.0001.vdb".as_ref(), &[(&back, WriteOptions::default())], &meta)?;
+//! # Ok(()) }
+//! ```
 
 mod ffi;
 pub mod layout;

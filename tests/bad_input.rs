@@ -38,7 +38,7 @@ fn write(path: &Path, data: &GridData) {
 /// Runs `skin` over frames 1–3 where frame 2 is `damage`d; frame 1 must be the only
 /// output, whole.
 fn skin_stops_at_frame_2(what: &str, damage: impl Fn(&Path)) {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     for frame in 1..=3 {
         write(
             &dir.path().join(format!("t.{frame:04}.vdb")),
@@ -70,7 +70,7 @@ fn damaged_vdb_frames() {
         std::fs::write(f, Lcg(99).bytes(4096)).unwrap();
     });
     let whole = {
-        let dir = tempfile::tempdir().unwrap();
+        let dir = common::scratch();
         let path = dir.path().join("whole.vdb");
         write(&path, &sphere(1.0 / 16.0));
         std::fs::read(path).unwrap()
@@ -112,7 +112,7 @@ fn damaged_ply_frames() {
         ("wrong property type", b"ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float128 x\nproperty float y\nproperty float z\nend_header\n"),
     ];
     for (what, bytes) in cases {
-        let dir = tempfile::tempdir().unwrap();
+        let dir = common::scratch();
         let pattern = ply_frames(dir.path(), bytes);
         let out = dir.path().join("out");
         let result = activeskin(&[
@@ -132,7 +132,7 @@ fn damaged_ply_frames() {
 
 #[test]
 fn bad_usage_exits_2() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     write(&dir.path().join("t.0001.vdb"), &sphere(1.0 / 16.0));
     let target = dir.path().join("t.####.vdb");
     let target = target.to_str().unwrap();
@@ -197,7 +197,7 @@ fn bad_usage_exits_2() {
 /// covers the rest). OpenVDB itself reports success on a short write: found here.
 #[test]
 fn full_disk_stops_with_one_line_and_keeps_written_frames() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let small = dir.path().join("small");
     std::fs::create_dir(&small).unwrap();
     let mounted = Command::new("mount")

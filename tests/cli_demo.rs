@@ -1,11 +1,13 @@
 //! `activeskin demo` (what `make demo` runs) writes its three sequences, whole and valid.
 #![cfg(feature = "vdb")]
 
+mod common;
+
 use std::process::Command;
 
 #[test]
 fn demo_writes_its_sequences() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let result = Command::new(env!("CARGO_BIN_EXE_activeskin"))
         .args(["demo", "-q", "--out", dir.path().to_str().unwrap()])
         .output()

@@ -1,6 +1,8 @@
 //! `activeskin info`: the report on good files, and one clear line for every bad one.
 #![cfg(feature = "vdb")]
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -43,7 +45,7 @@ fn assert_one_line_error(out: &Output, file: &Path, expect: &str) {
 
 #[test]
 fn describes_a_level_set() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let path = sphere_file(dir.path());
     let expected_voxels = Grid::read(&path, None).unwrap().active_voxel_count();
     let out = activeskin(&[&path]);
@@ -71,7 +73,7 @@ fn describes_a_level_set() {
 
 #[test]
 fn missing_empty_and_random_files() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let missing = dir.path().join("missing.vdb");
     assert_one_line_error(&activeskin(&[&missing]), &missing, "no such file");
 
@@ -100,7 +102,7 @@ fn missing_empty_and_random_files() {
 
 #[test]
 fn truncated_files() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let whole = std::fs::read(sphere_file(dir.path())).unwrap();
     // Every tenth of the file, and a dense sweep through the header where counts live.
     let cuts = (0..10)
@@ -118,7 +120,7 @@ fn truncated_files() {
 
 #[test]
 fn vector_grid_only() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let path = dir.path().join("velocity.vdb");
     vdb::write_vector_grid_file(&path).unwrap();
     let out = activeskin(&[&path]);
@@ -133,7 +135,7 @@ fn vector_grid_only() {
 
 #[test]
 fn several_files_report_each_failure() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let good = sphere_file(dir.path());
     let bad = dir.path().join("bad.vdb");
     std::fs::write(&bad, b"junk").unwrap();

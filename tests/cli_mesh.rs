@@ -2,6 +2,8 @@
 //! with the analytic sphere; fog volumes need --iso.
 #![cfg(feature = "vdb")]
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
@@ -75,7 +77,7 @@ fn read_ply(path: &Path) -> (f64, f64) {
 
 #[test]
 fn meshes_an_openvdb_sphere_like_volume_to_mesh() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let grid = Grid::level_set_sphere(1.0, [0.1, 0.2, -0.3], 0.05, 3.0).unwrap();
     let input = dir.path().join("sphere.vdb");
     write(&grid, &input);
@@ -102,7 +104,7 @@ fn meshes_an_openvdb_sphere_like_volume_to_mesh() {
 
 #[test]
 fn fog_volumes_need_iso() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let mut data = Grid::level_set_sphere(1.0, [0.0; 3], 0.1, 3.0)
         .unwrap()
         .to_data()

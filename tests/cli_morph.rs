@@ -2,6 +2,8 @@
 //! level set named `surface`, meshes closed; bad arguments give one-line errors.
 #![cfg(feature = "vdb")]
 
+mod common;
+
 use std::process::Command;
 
 use activeskin::vdb::{self, Grid};
@@ -16,7 +18,7 @@ fn activeskin(args: &[&str]) -> std::process::Output {
 
 #[test]
 fn morph_writes_valid_level_sets_and_meshes() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let out = dir.path().join("skin.####.vdb");
     let mesh = dir.path().join("skin.####.ply");
     let result = activeskin(&[
@@ -63,7 +65,7 @@ fn morph_writes_valid_level_sets_and_meshes() {
 
 #[test]
 fn bad_morph_arguments_are_one_line_errors() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let out = dir.path().join("x.####.vdb");
     let out = out.to_str().unwrap();
     // Exit 2 for a bad command line, 1 for a file that cannot be read.

@@ -2,6 +2,8 @@
 //! iso-density surface; broken particle files stop the run with one line naming them.
 #![cfg(feature = "vdb")]
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
@@ -57,7 +59,7 @@ fn activeskin(args: &[&str]) -> std::process::Output {
 
 #[test]
 fn static_cloud_skin_sits_on_the_iso_density_surface() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let points = cloud();
     for frame in 1..=6 {
         write_ply(&dir.path().join(format!("cloud.{frame:04}.ply")), &points);
@@ -124,7 +126,7 @@ fn static_cloud_skin_sits_on_the_iso_density_surface() {
 
 #[test]
 fn broken_particle_frames_are_one_line_errors() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let points = cloud();
     let cases: [(&str, &[u8]); 3] = [
         ("truncated", b"ply\nformat binary_little_endian 1.0\nelement vertex 9\nproperty float x\nproperty float y\nproperty float z\nend_header\n\0\0\0\0"),

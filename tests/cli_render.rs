@@ -2,13 +2,15 @@
 //! and a PNG.
 #![cfg(feature = "vdb")]
 
+mod common;
+
 use std::process::Command;
 
 use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
 
 #[test]
 fn renders_a_sphere_to_exr_layers_and_png() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let input = dir.path().join("sphere.vdb");
     let grid = Grid::level_set_sphere(1.0, [0.0; 3], 0.05, 3.0).unwrap();
     let meta = FileMetadata {

@@ -69,7 +69,7 @@ fn read_obj(path: &Path) -> Mesh {
 
 #[test]
 fn moving_sphere_every_frame_valid_and_on_target() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let out = dir.path().join("skin.$F4.vdb");
     let mesh = dir.path().join("skin.%04d.obj");
     let stats = dir.path().join("stats.jsonl");
@@ -144,7 +144,7 @@ fn moving_sphere_every_frame_valid_and_on_target() {
 
 #[test]
 fn splitting_target_gives_two_components() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let stats = dir.path().join("stats.jsonl");
     let result = activeskin(&[
         "skin",
@@ -180,7 +180,7 @@ fn skin_args<'a>(target: &'a str, out: &'a str, extra: &[&'a str]) -> Vec<&'a st
 #[test]
 fn resume_equals_an_uninterrupted_run() {
     let target = data("splitting/pair.####.vdb");
-    let whole = tempfile::tempdir().unwrap();
+    let whole = common::scratch();
     let whole_out = whole.path().join("skin.####.vdb");
     assert_ok(&activeskin(&skin_args(
         &target,
@@ -190,7 +190,7 @@ fn resume_equals_an_uninterrupted_run() {
 
     // A run stopped after frame 3 (a killed run leaves whole frames only: each is renamed
     // into place), then resumed.
-    let part = tempfile::tempdir().unwrap();
+    let part = common::scratch();
     let part_out = part.path().join("skin.####.vdb");
     let stats = part.path().join("stats.jsonl");
     let stats = stats.to_str().unwrap();
@@ -304,7 +304,7 @@ fn a_bad_frame_stops_the_run_and_keeps_earlier_frames() {
         }),
     ];
     for (what, damage) in cases {
-        let dir = tempfile::tempdir().unwrap();
+        let dir = common::scratch();
         let target = copy_of_moving(dir.path());
         let bad = dir.path().join("sphere.0004.vdb");
         damage(&bad);
@@ -330,7 +330,7 @@ fn a_bad_frame_stops_the_run_and_keeps_earlier_frames() {
 
 #[test]
 fn hold_missing_keeps_the_last_target() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let target = copy_of_moving(dir.path());
     std::fs::remove_file(dir.path().join("sphere.0005.vdb")).unwrap();
     let out = dir.path().join("out/skin.####.vdb");
@@ -345,7 +345,7 @@ fn hold_missing_keeps_the_last_target() {
 
 #[test]
 fn bad_usage_and_unusable_grids_are_one_line_errors() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let target = copy_of_moving(dir.path());
     let out = dir.path().join("out/skin.####.vdb");
     let out = out.to_str().unwrap();
@@ -406,7 +406,7 @@ fn bad_usage_and_unusable_grids_are_one_line_errors() {
 fn frames_with_other_voxel_sizes_and_rotated_transforms_are_sampled_in_world_space() {
     // A sphere of radius 0.3 at (0.1, 0, 0), written at three voxel sizes, the last one
     // with its index space rotated 30° about z and translated to keep the sphere put.
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let centre = Vec3::new(0.1, 0.0, 0.0);
     let radius = 0.3;
     for (frame, dx) in [
@@ -491,7 +491,7 @@ fn killed_then_resumed_equals_uninterrupted() {
         }
         args.iter().map(|s| s.to_string()).collect::<Vec<_>>()
     };
-    let whole = tempfile::tempdir().unwrap();
+    let whole = common::scratch();
     assert_ok(&activeskin(
         &run(whole.path(), false)
             .iter()
@@ -499,7 +499,7 @@ fn killed_then_resumed_equals_uninterrupted() {
             .collect::<Vec<_>>(),
     ));
 
-    let part = tempfile::tempdir().unwrap();
+    let part = common::scratch();
     let mut child = Command::new(env!("CARGO_BIN_EXE_activeskin"))
         .args(run(part.path(), false))
         .spawn()
@@ -552,7 +552,7 @@ fn killed_then_resumed_equals_uninterrupted() {
 
 #[test]
 fn init_starts_the_skin_on_another_shape() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let init = dir.path().join("init.vdb");
     let small = Sphere {
         center: Vec3::splat(1.5),

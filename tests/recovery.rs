@@ -88,7 +88,7 @@ fn assert_frames_whole(dir: &Path) {
 
 #[test]
 fn killed_at_random_moments_then_resumed_equals_uninterrupted() {
-    let whole = tempfile::tempdir().unwrap();
+    let whole = common::scratch();
     let started = Instant::now();
     run(whole.path(), false);
     let full = started.elapsed();
@@ -112,7 +112,7 @@ fn killed_at_random_moments_then_resumed_equals_uninterrupted() {
     let mut random = Lcg(seed | 1);
 
     for trial in 0..4 {
-        let part = tempfile::tempdir().unwrap();
+        let part = common::scratch();
         // Three kills at random moments, each run resuming the last, then one to the end.
         let mut kills = 0;
         for attempt in 0..3 {

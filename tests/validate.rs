@@ -5,6 +5,8 @@
 //! they drift apart by more than 0.5 % (see README).
 #![cfg(feature = "vdb")]
 
+mod common;
+
 use activeskin::skin::{Skin, SkinParams, SpeedParams};
 use activeskin::target::{sample, Blobs, Sphere, Target, Torus, Union};
 use activeskin::validate::{compare, eikonal_against_exact, Report};
@@ -132,7 +134,7 @@ fn skin_mid_split() {
 #[test]
 fn validate_command_prints_the_table_and_fails_out_of_tolerance() {
     use activeskin::vdb::{self, FileMetadata, WriteOptions};
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let meta = FileMetadata {
         creator: "test".into(),
         has_frame: false,

@@ -2,6 +2,8 @@
 //! (volumeToMesh, LevelSetMeasure, checkLevelSet) answer through it.
 #![cfg(feature = "vdb")]
 
+mod common;
+
 use std::f64::consts::PI;
 
 use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
@@ -50,7 +52,7 @@ fn assert_bit_identical(a: &GridData, b: &GridData) {
 
 #[test]
 fn sphere_round_trips_bit_for_bit_with_interior_tiles() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let original = sphere_with_interior_tiles();
     let data = original.to_data().unwrap();
 
@@ -87,7 +89,7 @@ fn sphere_round_trips_bit_for_bit_with_interior_tiles() {
 
 #[test]
 fn translated_transform_and_background_survive() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let mut data = sphere_with_interior_tiles().to_data().unwrap();
     data.transform = Transform::uniform(0.1, [1.5, -2.25, 3.0]);
     data.name = "skin".into();
@@ -114,7 +116,7 @@ fn non_uniform_transform_is_reported() {
 
 #[test]
 fn half_float_storage_rounds_to_half_precision() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let grid = sphere_with_interior_tiles();
     let data = grid.to_data().unwrap();
     let path = dir.path().join("half.vdb");
@@ -137,7 +139,7 @@ fn half_float_storage_rounds_to_half_precision() {
 
 #[test]
 fn several_grids_in_one_file() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let a = Grid::level_set_sphere(1.0, [0.0; 3], 0.1, 3.0).unwrap();
     let mut b_data = Grid::level_set_sphere(0.5, [2.0, 0.0, 0.0], 0.05, 3.0)
         .unwrap()
@@ -257,7 +259,7 @@ fn openvdb_errors_arrive_as_err_with_their_message() {
 
 #[test]
 fn write_failure_leaves_earlier_file_intact() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let grid = Grid::level_set_sphere(1.0, [0.0; 3], 0.1, 3.0).unwrap();
     let missing_folder = dir.path().join("no/such/folder/x.vdb");
     let err = vdb::write_grids(
@@ -273,7 +275,7 @@ fn write_failure_leaves_earlier_file_intact() {
 
 #[test]
 fn grid_lookup_errors_name_the_grids() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let path = dir.path().join("vector.vdb");
     vdb::write_vector_grid_file(&path).unwrap();
     let err = Grid::read(&path, None).err().unwrap().to_string();

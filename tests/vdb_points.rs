@@ -22,7 +22,7 @@ fn scattered(n: usize, seed: u64) -> Vec<[f32; 3]> {
 
 #[test]
 fn positions_and_pscale_round_trip_within_fixed_point() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let path = dir.path().join("points.vdb");
     let points = scattered(700, 3);
     let radii: Vec<f32> = (0..points.len()).map(|i| 0.01 + i as f32 * 1e-5).collect();
@@ -66,7 +66,7 @@ fn one_line_error(path: &Path) -> String {
 
 #[test]
 fn files_without_points_or_cut_short_are_one_line_errors() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let level_set = dir.path().join("sphere.vdb");
     let sphere = vdb::Grid::level_set_sphere(1.0, [0.0; 3], 0.1, 3.0).unwrap();
     let meta = vdb::FileMetadata {
@@ -98,7 +98,7 @@ fn files_without_points_or_cut_short_are_one_line_errors() {
 
 #[test]
 fn particles_command_skins_a_point_data_grid_sequence() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     // A ball of particles on a lattice 0.05 apart.
     let ball: Vec<[f32; 3]> = (-8..=8)
         .flat_map(|x| (-8..=8).flat_map(move |y| (-8..=8).map(move |z| [x, y, z])))
@@ -142,7 +142,7 @@ fn particles_command_skins_a_point_data_grid_sequence() {
 
 #[test]
 fn particles_use_their_own_pscale_unless_told_not_to() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = common::scratch();
     let centres = [[1.0f32, 1.5, 1.5], [2.0, 1.5, 1.5]];
     let radii = [0.1f32, 0.2];
     for frame in 1..=2 {

@@ -10,7 +10,7 @@ use activeskin::skin::AnySkin;
 use activeskin::target::{iso_for_radius, Aabb, Blobs, Density, Sphere, Target, Union};
 use glam::Vec3;
 
-use super::outputs::{OutputArgs, PhysicsArgs, PrecisionArg};
+use super::args::{OutputArgs, PhysicsArgs, PrecisionArg};
 use super::skin::run_frames;
 
 #[derive(clap::Args)]
@@ -43,7 +43,7 @@ fn physics(alpha: f32, beta: f32) -> PhysicsArgs {
     PhysicsArgs {
         fps: 24.0,
         alpha,
-        beta,
+        beta: Some(beta),
         volume_gain: 0.0,
         area_gain: 0.0,
         voxel_size: None,

@@ -7,7 +7,7 @@ use activeskin::polygonize::mesh_vdb;
 use activeskin::vdb::Grid;
 use activeskin::volume::GridClass;
 
-use super::skin::check_usable;
+use activeskin::frames::check_usable;
 
 #[derive(clap::Args)]
 pub struct MeshArgs {

@@ -7,9 +7,10 @@ use activeskin::skin::AnySkin;
 use activeskin::target::{Blobs, Sphere, Target, Torus, Union};
 use glam::Vec3;
 
+use super::args::{OutputArgs, PhysicsArgs};
 use super::bad_usage;
-use super::outputs::{OutputArgs, PhysicsArgs};
-use super::skin::{parse_frames, read_target, run_frames};
+use super::skin::{parse_frames, run_frames};
+use activeskin::frames::read_target;
 
 #[derive(clap::Args)]
 pub struct MorphArgs {

@@ -1,15 +1,14 @@
 //! `activeskin particles --particles PATTERN --radius R [...]`: a skin dressed on a
 //! particle sequence (paper §6.1), through the same frame loop and outputs as `skin`.
 
-use activeskin::particles;
+use activeskin::frames::{FrameError, ParticleInput};
 use activeskin::skin::AnySkin;
-use activeskin::target::{iso_for_radius, Density, Target};
-use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
-use anyhow::{bail, Context};
+use activeskin::target::{iso_for_radius, Target};
+use anyhow::Context;
 
-use super::outputs::{OutputArgs, PhysicsArgs};
+use super::args::{OutputArgs, PhysicsArgs};
 use super::pattern_arg;
-use super::skin::{input_frames, run_frames, InputFrames};
+use super::skin::{input_frames, run_frames};
 
 #[derive(clap::Args)]
 pub struct ParticlesArgs {
@@ -45,16 +44,13 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     if !(args.radius.is_finite() && args.radius > 0.0) {
         usage!("--radius must be a positive number, got {}", args.radius);
     }
-    let h = 2.0 * args.radius;
-    let iso = args.iso.unwrap_or_else(|| iso_for_radius(args.radius, h));
+    let iso = args
+        .iso
+        .unwrap_or_else(|| iso_for_radius(args.radius, 2.0 * args.radius));
     if !(iso.is_finite() && iso > 0.0) {
         usage!("--iso must be a positive number, got {iso}");
     }
-    let InputFrames {
-        pattern,
-        existing,
-        range,
-    } = input_frames("--particles", &args.particles, args.frames.as_deref())?;
+    let input = input_frames("--particles", &args.particles, args.frames.as_deref())?;
     let params = args.physics.params(0.5 * args.radius)?;
     let density_out = match &args.density_out {
         Some(spec) => {
@@ -67,38 +63,26 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
+    let particles = ParticleInput {
+        radius: args.radius,
+        ignore_radii: args.ignore_radii,
+        iso,
+        density_out,
+        dx: params.dx,
+    };
     // Each frame is read once: its density is the skin's target and, with
     // --density-out, written as a fog volume on the way.
-    let target_at = |frame: i64| -> anyhow::Result<Box<dyn Target>> {
-        let path = pattern.path(frame);
-        if existing.binary_search(&frame).is_err() {
-            bail!(
+    let target_at = |frame: i64| -> Result<Box<dyn Target>, FrameError> {
+        let path = input.pattern.path(frame);
+        if input.existing.binary_search(&frame).is_err() {
+            return Err(FrameError::Data(format!(
                 "{}: frame {frame} of the particles is missing",
                 path.display()
-            );
+            )));
         }
-        let cloud = particles::read(&path)?;
-        if cloud.positions.is_empty() {
-            bail!("{}: no particles", path.display());
-        }
-        let density = match cloud.radii {
-            Some(radii) if !args.ignore_radii => {
-                let supports = radii.iter().map(|r| 2.0 * r).collect();
-                Density::with_supports(cloud.positions, supports, iso)
-            }
-            _ => Density::new(cloud.positions, h, iso),
-        };
-        if let Some(out) = &density_out {
-            let fog = Grid::from_data(&density.to_fog_volume(params.dx))?;
-            let meta = FileMetadata {
-                creator: format!("activeskin {}", env!("CARGO_PKG_VERSION")),
-                has_frame: true,
-                frame,
-            };
-            vdb::write_grids(&out.path(frame), &[(&fog, WriteOptions::default())], &meta)?;
-        }
-        Ok(Box::new(density))
+        Ok(Box::new(particles.target(&path, frame)?))
     };
+    let range = input.range;
     let first = target_at(range.0)?;
     let skin = AnySkin::new(&*first, params);
     drop(first);

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use activeskin::render::{self, View};
 use anyhow::Context;
 
-use super::skin::read_target;
+use activeskin::frames::read_target;
 
 #[derive(clap::Args)]
 pub struct RenderArgs {

@@ -12,9 +12,20 @@ impl<P: Potential> SparseGrid<P> {
     /// one block are kept; larger inside tiles and a negative background are kept where
     /// they touch a leaf, which is all a polygonizer or the band upkeep reads.
     pub fn from_vdb(data: &GridData, value: impl Fn(f32) -> f32) -> Self {
+        let mut grid = SparseGrid::new();
+        grid.import(data, value);
+        grid
+    }
+
+    /// [`SparseGrid::from_vdb`] into this grid, keeping its allocations (a skin restores
+    /// its state every frame).
+    pub fn import(&mut self, data: &GridData, value: impl Fn(f32) -> f32) {
+        self.index.clear();
+        self.blocks.clear();
+        self.inside.clear();
+        let grid = self;
         let mut order: Vec<usize> = (0..data.leaf_count()).collect();
         order.sort_unstable_by_key(|&i| data.leaf_origins[i]);
-        let mut grid = SparseGrid::new();
         for &leaf in &order {
             let coord = IVec3::from_array(data.leaf_origins[leaf]) >> IVec3::splat(3);
             let id = grid.touch(coord);
@@ -60,7 +71,6 @@ impl<P: Potential> SparseGrid<P> {
                 }
             }
         }
-        grid
     }
 }
 

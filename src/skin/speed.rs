@@ -32,10 +32,31 @@ pub struct SpeedParams {
     pub attraction: AttractionSample,
 }
 
+/// Default attraction rate α, 1/s.
+pub const DEFAULT_ALPHA: f32 = 4.0;
+
+/// Default surface tension in voxels²/s: β = this × Δx². Expressed per voxel, tension
+/// smooths the same number of voxels whatever the cell, and its explicit step bound
+/// (Δx²/(6β), §4.8) is the same 1/24 s on every grid: at 24 fps it never needs more than
+/// the two sub-steps the default safety factor takes.
+pub const DEFAULT_TENSION: f32 = 4.0;
+
+impl SpeedParams {
+    /// The defaults on voxels of size `dx`: α = [`DEFAULT_ALPHA`], β =
+    /// [`DEFAULT_TENSION`]·Δx².
+    pub fn default_for(dx: f32) -> Self {
+        SpeedParams {
+            beta: DEFAULT_TENSION * dx * dx,
+            ..SpeedParams::default()
+        }
+    }
+}
+
 impl Default for SpeedParams {
+    /// α = [`DEFAULT_ALPHA`], no tension, no preservation.
     fn default() -> Self {
         SpeedParams {
-            alpha: 2.0,
+            alpha: DEFAULT_ALPHA,
             beta: 0.0,
             area_gain: 0.0,
             volume_gain: 0.0,
@@ -145,7 +166,15 @@ fn neighbours(stencil: &Stencil, axis: usize) -> (f32, f32) {
     }
 }
 
-/// V at a node, world units per second (positive: the skin moves outward there).
+/// The largest curvature tension acts on, in index units (κΔx): a sphere one voxel in
+/// radius. Where the potential is rough (a void closing, a saddle of the start-up
+/// density) eq. 4 divides by a vanishing |∇f|³; what the grid cannot resolve is clamped
+/// rather than let it set the time step.
+pub const MAX_CURVATURE_INDEX: f32 = 2.0;
+
+/// V at a node, world units per second (positive: the skin moves outward there), and
+/// its part without tension, which alone sets the CFL bound: tension is parabolic, held
+/// by its own bound Δx²/(6β) (§4.8).
 #[inline]
 pub fn normal_speed(
     params: &SpeedParams,
@@ -153,8 +182,12 @@ pub fn normal_speed(
     target_distance: f32,
     curvature_index: Option<f32>,
     dx: f32,
-) -> f32 {
-    let kappa = curvature_index.unwrap_or(0.0) / dx;
+) -> (f32, f32) {
+    let kappa = curvature_index
+        .unwrap_or(0.0)
+        .clamp(-MAX_CURVATURE_INDEX, MAX_CURVATURE_INDEX)
+        / dx;
     // G − iso = −(signed distance): inside the target the skin inflates.
-    params.alpha * (-target_distance) - params.beta * kappa + global.preservation
+    let advective = params.alpha * (-target_distance) + global.preservation;
+    (advective - params.beta * kappa, advective)
 }

@@ -4,6 +4,9 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
+use activeskin::mesh::Mesh;
+use glam::Vec3;
+
 /// Runs the `activeskin` binary built for these tests.
 pub fn activeskin(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_activeskin"))
@@ -57,4 +60,117 @@ impl Lcg {
     pub fn bytes(&mut self, n: usize) -> Vec<u8> {
         (0..n).map(|_| (self.next_u64() >> 56) as u8).collect()
     }
+}
+
+/// A scratch folder that, when the test is done with it, checks every mesh written into
+/// it (OBJ and PLY with faces, in any sub-folder) with [`Mesh::check`]: every mesh the
+/// test suite writes is a clean surface, not just the ones a test looks at.
+pub struct Scratch(tempfile::TempDir);
+
+pub fn scratch() -> Scratch {
+    Scratch(tempfile::tempdir().expect("a scratch folder"))
+}
+
+impl Scratch {
+    pub fn path(&self) -> &Path {
+        self.0.path()
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            assert_clean_meshes(self.path());
+        }
+    }
+}
+
+/// Checks every mesh under `dir`; returns how many there were.
+pub fn assert_clean_meshes(dir: &Path) -> usize {
+    let mut checked = 0;
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    for entry in entries.flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            checked += assert_clean_meshes(&path);
+            continue;
+        }
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+        let hidden = path.file_name().unwrap().to_string_lossy().starts_with('.');
+        if hidden || !(ext.eq_ignore_ascii_case("obj") || ext.eq_ignore_ascii_case("ply")) {
+            continue;
+        }
+        if let Some(mesh) = read_mesh(&path) {
+            let check = mesh.check();
+            assert!(check.is_clean(), "{}: {check}", path.display());
+            checked += 1;
+        }
+    }
+    checked
+}
+
+/// An OBJ, or a binary little-endian PLY as activeskin writes it (x y z nx ny nz floats,
+/// uchar-counted int faces); `None` for a file with no faces (a particle file).
+pub fn read_mesh(path: &Path) -> Option<Mesh> {
+    let bytes = std::fs::read(path).unwrap();
+    let mut mesh = Mesh::default();
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
+    {
+        for line in String::from_utf8_lossy(&bytes).lines() {
+            let mut words = line.split_whitespace();
+            match words.next() {
+                Some("v") => {
+                    let v: Vec<f32> = words.map(|w| w.parse().unwrap()).collect();
+                    mesh.positions.push(Vec3::new(v[0], v[1], v[2]));
+                }
+                Some("f") => {
+                    let f: Vec<u32> = words
+                        .map(|w| w.split('/').next().unwrap().parse::<u32>().unwrap() - 1)
+                        .collect();
+                    assert_eq!(
+                        f.len(),
+                        3,
+                        "{}: a face that is not a triangle",
+                        path.display()
+                    );
+                    mesh.triangles.push([f[0], f[1], f[2]]);
+                }
+                _ => {}
+            }
+        }
+        return Some(mesh);
+    }
+    let end = bytes.windows(11).position(|w| w == b"end_header\n")? + 11;
+    let header = String::from_utf8_lossy(&bytes[..end]);
+    let count = |key: &str| -> Option<usize> {
+        let line = header.lines().find(|l| l.starts_with(key))?;
+        line.rsplit(' ').next()?.parse().ok()
+    };
+    let faces = count("element face")?;
+    if !header.contains("binary_little_endian") || !header.contains("property float nz") {
+        return None; // not one of ours
+    }
+    let vertices = count("element vertex")?;
+    let word = |o: usize| -> [u8; 4] { bytes[o..o + 4].try_into().unwrap() };
+    for v in 0..vertices {
+        let f = |k: usize| f32::from_le_bytes(word(end + v * 24 + 4 * k));
+        mesh.positions.push(Vec3::new(f(0), f(1), f(2)));
+    }
+    let start = end + vertices * 24;
+    for t in 0..faces {
+        let o = start + t * 13;
+        assert_eq!(
+            bytes[o],
+            3,
+            "{}: a face that is not a triangle",
+            path.display()
+        );
+        let u = |k: usize| u32::from_le_bytes(word(o + 1 + 4 * k));
+        mesh.triangles.push([u(0), u(1), u(2)]);
+    }
+    Some(mesh)
 }

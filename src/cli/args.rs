@@ -1,0 +1,134 @@
+//! The options `skin`, `particles`, `morph` and `demo` share: the skin's physics and the
+//! per-frame outputs, turned into the library's [`SkinParams`] and [`OutputSpec`].
+
+use std::path::PathBuf;
+
+use activeskin::frames::{OutputSpec, Progress};
+use activeskin::grid::Precision;
+use activeskin::skin::{SkinParams, SpeedParams};
+
+use super::pattern_arg;
+use super::render::parse_size;
+
+/// The skin's physical and numerical options.
+#[derive(clap::Args)]
+pub struct PhysicsArgs {
+    /// Frames per second: the skin advances 1/fps seconds per frame.
+    #[arg(long, default_value_t = 24.0)]
+    pub fps: f64,
+    /// Attraction rate α (1/s): the skin closes α × its distance to the target per second.
+    #[arg(long, default_value_t = activeskin::skin::speed::DEFAULT_ALPHA)]
+    pub alpha: f32,
+    /// Surface tension β (world units²/s): smooths, shrinks thin parts and small bubbles
+    /// [default: 4·Δx² per second, the same smoothing in voxels on every grid].
+    #[arg(long)]
+    pub beta: Option<f32>,
+    /// Volume preservation gain γ_V (world units/s).
+    #[arg(long, default_value_t = 0.0)]
+    pub volume_gain: f32,
+    /// Area preservation gain γ_A (world units/s).
+    #[arg(long, default_value_t = 0.0)]
+    pub area_gain: f32,
+    /// Voxel size of the skin (default: the target's).
+    #[arg(long)]
+    pub voxel_size: Option<f32>,
+    /// Storage of the potential: f32, or fixed16 (half the memory).
+    #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
+    pub precision: PrecisionArg,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum PrecisionArg {
+    F32,
+    Fixed16,
+}
+
+impl PhysicsArgs {
+    /// Checked parameters for a skin of voxel size `dx`.
+    pub fn params(&self, default_dx: f32) -> anyhow::Result<SkinParams> {
+        if !self.fps.is_finite() || self.fps <= 0.0 {
+            usage!("--fps must be a positive number");
+        }
+        for (name, v) in [
+            ("--alpha", self.alpha),
+            ("--beta", self.beta.unwrap_or(0.0)),
+            ("--volume-gain", self.volume_gain),
+            ("--area-gain", self.area_gain),
+        ] {
+            // Rejects NaN as well as negatives.
+            if !(v.is_finite() && v >= 0.0) {
+                usage!("{name} must be a non-negative number, got {v}");
+            }
+        }
+        let dx = self.voxel_size.unwrap_or(default_dx);
+        if !(dx.is_finite() && dx > 0.0) {
+            usage!("--voxel-size must be a positive number, got {dx}");
+        }
+        let defaults = SpeedParams::default_for(dx);
+        Ok(SkinParams {
+            dx,
+            speed: SpeedParams {
+                alpha: self.alpha,
+                beta: self.beta.unwrap_or(defaults.beta),
+                volume_gain: self.volume_gain,
+                area_gain: self.area_gain,
+                ..defaults
+            },
+            precision: match self.precision {
+                PrecisionArg::F32 => Precision::F32,
+                PrecisionArg::Fixed16 => Precision::Fixed16,
+            },
+            ..SkinParams::default()
+        })
+    }
+}
+
+/// The files written per frame.
+#[derive(clap::Args)]
+pub struct OutputArgs {
+    /// Skin VDB level sets (grid `surface`): name.####.vdb, name.%04d.vdb, name.$F4.vdb.
+    #[arg(long)]
+    pub out: Option<String>,
+    /// Meshes, OBJ or PLY by extension, same patterns.
+    #[arg(long)]
+    pub mesh: Option<String>,
+    /// Renders: multi-layer EXR (RGBA, Z, N) or PNG by extension, same patterns; the
+    /// camera frames the first frame's skin and stays put.
+    #[arg(long)]
+    pub render: Option<String>,
+    /// Render size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "640x360")]
+    pub render_size: String,
+    /// One JSON object per frame (frame, time, sub-steps, band nodes, blocks, area,
+    /// volume, Euler characteristic, components, milliseconds).
+    #[arg(long)]
+    pub stats: Option<PathBuf>,
+    /// Continue from the last skin VDB already written by --out.
+    #[arg(long)]
+    pub resume: bool,
+    /// No progress output.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+impl OutputArgs {
+    /// The outputs as the frame loop takes them.
+    pub fn spec(&self) -> anyhow::Result<OutputSpec> {
+        let render = match &self.render {
+            Some(spec) => Some((pattern_arg(spec)?, parse_size(&self.render_size)?)),
+            None => None,
+        };
+        Ok(OutputSpec {
+            out: self.out.as_deref().map(pattern_arg).transpose()?,
+            mesh: self.mesh.as_deref().map(pattern_arg).transpose()?,
+            render,
+            stats: self.stats.clone(),
+            resume: self.resume,
+            progress: if self.quiet {
+                Progress::Quiet
+            } else {
+                Progress::Auto
+            },
+        })
+    }
+}

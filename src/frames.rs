@@ -1,0 +1,99 @@
+//! The frame loop as a library: each frame reads its target, advances the skin 1/fps
+//! toward it (§4.7 in sub-steps), settles the skin into the state a VDB file holds, writes
+//! the outputs asked for, and can resume a killed run. The commands only configure it.
+//!
+//! **One canonical state per frame.** A frame ends with the skin exactly as its VDB level
+//! set holds it (re-distanced next to the skin, quantised to what is written), whether a
+//! VDB is written or not. So the skin never depends on which outputs were asked for, and a
+//! run resumed from a written frame, or a farm chunk started from one, repeats an
+//! uninterrupted run bit for bit.
+
+mod inputs;
+mod outputs;
+
+use std::time::Instant;
+
+pub use inputs::{check_usable, read_target, InputFrames, ParticleInput};
+pub use outputs::{OutputSpec, Outputs, Progress};
+
+use crate::mesh::MeshError;
+use crate::particles::ParticleError;
+use crate::render::RenderError;
+use crate::sequence::PatternError;
+use crate::skin::{AnySkin, SkinError};
+use crate::target::Target;
+use crate::vdb::{Grid, VdbError};
+
+/// Why a run stopped. Every message is one line naming the file at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum FrameError {
+    #[error(transparent)]
+    Vdb(#[from] VdbError),
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error(transparent)]
+    Skin(#[from] SkinError),
+    #[error(transparent)]
+    Particles(#[from] ParticleError),
+    #[error(transparent)]
+    Pattern(#[from] PatternError),
+    /// An input that cannot be used, or an output that cannot be written.
+    #[error("{0}")]
+    Data(String),
+    /// A request that cannot be met whatever the files hold (a command-line mistake).
+    #[error("{0}")]
+    Usage(String),
+}
+
+/// Runs frames `first..=last`: frame `first` is the starting skin, each later frame
+/// advances 1/`fps` seconds toward `target_at(frame)`. With `outputs.resume()`, starts
+/// after the last skin VDB already written.
+pub fn run<'t>(
+    (first, last): (i64, i64),
+    mut skin: AnySkin,
+    fps: f64,
+    outputs: &mut Outputs,
+    mut target_at: impl FnMut(i64) -> Result<Box<dyn Target + 't>, FrameError>,
+) -> Result<(), FrameError> {
+    let mut start = first;
+    if outputs.resume() {
+        if let Some((frame, path)) = (first..=last)
+            .rev()
+            .find_map(|f| outputs.written_skin(f).map(|p| (f, p)))
+        {
+            let data = Grid::read(&path, Some("surface"))
+                .and_then(|g| g.to_data())
+                .map_err(|e| {
+                    FrameError::Data(format!(
+                        "{e}; cannot resume from it, delete it to recompute that frame"
+                    ))
+                })?;
+            skin.restore(&data).map_err(|e| {
+                FrameError::Data(format!("{}: cannot resume from it: {e}", path.display()))
+            })?;
+            skin.set_time((frame - first) as f64 / fps);
+            outputs.resume_stats(frame + 1)?;
+            outputs.skip((frame - first + 1) as u64);
+            start = frame + 1;
+        }
+    }
+    for frame in start..=last {
+        let started = Instant::now();
+        let substeps = if frame == first {
+            0
+        } else {
+            let target = target_at(frame)?;
+            skin.advance(&*target, 1.0 / fps).substeps
+        };
+        let level_set = skin.settle();
+        let stats = crate::skin::StepStats {
+            substeps,
+            ..skin.stats()
+        };
+        outputs.write_frame(frame, &skin, &level_set, &stats, started)?;
+    }
+    outputs.finish();
+    Ok(())
+}

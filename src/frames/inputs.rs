@@ -1,0 +1,157 @@
+//! A frame's inputs: target sequences found on disk, and VDB targets checked and read.
+
+use std::path::{Path, PathBuf};
+
+use super::FrameError;
+use crate::particles;
+use crate::sequence::FramePattern;
+use crate::target::{Density, FogTarget, LevelSetTarget, Target};
+use crate::vdb::{self, FileMetadata, Grid, WriteOptions};
+use crate::volume::{GridClass, GridData};
+
+/// An input sequence: its pattern, the frames found on disk (sorted), the range to run.
+pub struct InputFrames {
+    pub pattern: FramePattern,
+    pub existing: Vec<i64>,
+    pub range: (i64, i64),
+}
+
+impl InputFrames {
+    /// The sequence given as `flag` (e.g. `--target`); the range is `frames`, or every
+    /// frame found.
+    pub fn find(flag: &str, spec: &str, frames: Option<(i64, i64)>) -> Result<Self, FrameError> {
+        let pattern = FramePattern::parse(spec).map_err(|e| FrameError::Usage(e.to_string()))?;
+        let existing = pattern.existing_frames()?;
+        let range = match (frames, existing.first(), existing.last()) {
+            (Some(range), _, _) => range,
+            (None, Some(&a), Some(&b)) => (a, b),
+            _ => {
+                return Err(FrameError::Usage(format!(
+                    "no file matches {flag} '{spec}'"
+                )))
+            }
+        };
+        Ok(InputFrames {
+            pattern,
+            existing,
+            range,
+        })
+    }
+
+    /// The file of `frame`; with `hold_missing`, the last earlier one when it is missing.
+    pub fn file(&self, frame: i64, hold_missing: bool) -> Result<PathBuf, FrameError> {
+        let path = self.pattern.path(frame);
+        if self.existing.binary_search(&frame).is_ok() {
+            return Ok(path);
+        }
+        let held = self.existing.iter().rev().find(|&&f| f < frame);
+        Err(FrameError::Data(match held {
+            Some(&f) if hold_missing => return Ok(self.pattern.path(f)),
+            _ if hold_missing => {
+                format!("{}: missing, and no earlier target to hold", path.display())
+            }
+            _ => format!(
+                "{}: frame {frame} of the target is missing (--hold-missing keeps the last target)",
+                path.display()
+            ),
+        }))
+    }
+}
+
+/// A target read from a VDB file (a level set, or a fog volume at density `iso`), and its
+/// voxel size.
+pub fn read_target(
+    path: &Path,
+    grid: Option<&str>,
+    iso: Option<f32>,
+) -> Result<(Box<dyn Target>, f32), FrameError> {
+    let data = Grid::read(path, grid)?.to_data()?;
+    check_usable(path, &data)?;
+    if data.leaf_count() == 0 && data.tiles.is_empty() {
+        return Err(FrameError::Data(format!(
+            "{}: grid '{}' is empty",
+            path.display(),
+            data.name
+        )));
+    }
+    let dx = data.transform.voxel_size() as f32;
+    let target: Box<dyn Target> = match (data.class, iso) {
+        (GridClass::LevelSet, _) => Box::new(LevelSetTarget::new(&data)),
+        (_, Some(iso)) if iso.is_finite() => Box::new(FogTarget::new(&data, iso)),
+        (_, Some(iso)) => {
+            return Err(FrameError::Usage(format!(
+                "--iso must be a number, got {iso}"
+            )))
+        }
+        (_, None) => {
+            return Err(FrameError::Usage(format!(
+                "{}: grid '{}' is not a level set: give --iso, the density of its surface",
+                path.display(),
+                data.name
+            )))
+        }
+    };
+    Ok((target, dx))
+}
+
+/// What any grid we sample or mesh must be: uniform voxels and finite values.
+pub fn check_usable(path: &Path, data: &GridData) -> Result<(), FrameError> {
+    let name = &data.name;
+    if !data.uniform_linear {
+        return Err(FrameError::Data(format!(
+            "{}: grid '{name}' has a non-uniform or non-linear transform; resample it to cubic voxels",
+            path.display()
+        )));
+    }
+    let finite = data.background.is_finite()
+        && data.leaf_values.iter().all(|v| v.is_finite())
+        && data.tiles.iter().all(|t| t.value.is_finite());
+    if !finite {
+        return Err(FrameError::Data(format!(
+            "{}: grid '{name}' holds NaN or infinite values",
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
+/// How particle frames become targets (§6.1): the density of particles of `radius` (or
+/// their own radii), its surface at `iso`; written as a fog volume when `density_out`.
+pub struct ParticleInput {
+    pub radius: f32,
+    pub ignore_radii: bool,
+    pub iso: f32,
+    pub density_out: Option<FramePattern>,
+    /// Voxel size of the fog volumes written.
+    pub dx: f32,
+}
+
+impl ParticleInput {
+    /// Reads the particles of `frame` from `path` (once) and builds their density.
+    pub fn target(&self, path: &Path, frame: i64) -> Result<Density, FrameError> {
+        let cloud = particles::read(path)?;
+        if cloud.positions.is_empty() {
+            return Err(FrameError::Data(format!(
+                "{}: no particles",
+                path.display()
+            )));
+        }
+        let density = match cloud.radii {
+            Some(radii) if !self.ignore_radii => {
+                let supports = radii.iter().map(|r| 2.0 * r).collect();
+                Density::with_supports(cloud.positions, supports, self.iso)
+            }
+            _ => Density::new(cloud.positions, 2.0 * self.radius, self.iso),
+        };
+        if let Some(out) = &self.density_out {
+            let fog = Grid::from_data(&density.to_fog_volume(self.dx))?;
+            let meta = FileMetadata {
+                creator: format!("activeskin {}", env!("CARGO_PKG_VERSION")),
+                has_frame: true,
+                frame,
+            };
+            vdb::write_grids(&out.path(frame), &[(&fog, WriteOptions::default())], &meta)?;
+        }
+        Ok(density)
+    }
+}

@@ -1,0 +1,274 @@
+//! What a frame writes: the skin VDB, the mesh, a render, a stats line, progress. Each
+//! file is written under a temporary name and renamed.
+
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressStyle};
+
+use super::FrameError;
+use crate::render::{self, View};
+use crate::sequence::FramePattern;
+use crate::skin::{AnySkin, StepStats};
+use crate::target::{Aabb, LevelSetTarget, Target};
+use crate::vdb::{self, FileMetadata, Grid, WriteOptions};
+use crate::volume::GridData;
+
+/// How progress is shown.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Progress {
+    /// A bar on a terminal, a line per frame otherwise.
+    Auto,
+    Quiet,
+}
+
+/// The files a run writes per frame, each optional (at least one is needed).
+#[derive(Debug, Clone)]
+pub struct OutputSpec {
+    /// Skin VDB level sets (grid `surface`).
+    pub out: Option<FramePattern>,
+    /// Meshes, OBJ or PLY by extension.
+    pub mesh: Option<FramePattern>,
+    /// Renders (EXR or PNG by extension) and their size.
+    pub render: Option<(FramePattern, (usize, usize))>,
+    /// One JSON object per frame.
+    pub stats: Option<PathBuf>,
+    /// Continue after the last skin VDB written under `out`.
+    pub resume: bool,
+    pub progress: Progress,
+}
+
+/// Writes each frame's outputs and reports progress.
+pub struct Outputs {
+    resume: bool,
+    out: Option<FramePattern>,
+    mesh: Option<FramePattern>,
+    render: Option<(FramePattern, (usize, usize), Option<Aabb>)>,
+    stats: Option<(PathBuf, Vec<u8>)>,
+    progress: ProgressBar,
+    plain: bool,
+}
+
+impl Outputs {
+    /// Checks the request, creates the output folders and removes the temporary files a
+    /// killed run left there.
+    pub fn new(spec: &OutputSpec, frames: u64) -> Result<Self, FrameError> {
+        let usage = |m: String| Err(FrameError::Usage(m));
+        if let Some(mesh) = &spec.mesh {
+            require_extension("--mesh", mesh, "meshes", &["obj", "ply"])?;
+        }
+        if let Some((render, _)) = &spec.render {
+            require_extension("--render", render, "renders", &["exr", "png"])?;
+        }
+        let (out, mesh) = (spec.out.clone(), spec.mesh.clone());
+        let render = spec.render.clone().map(|(p, size)| (p, size, None));
+        if out.is_none() && mesh.is_none() && render.is_none() && spec.stats.is_none() {
+            return usage("nothing to write: give --out, --mesh, --render or --stats".into());
+        }
+        if spec.resume && out.is_none() {
+            return usage(
+                "--resume needs --out: it continues from the last skin VDB written there".into(),
+            );
+        }
+        for pattern in out.iter().chain(&mesh).chain(render.iter().map(|r| &r.0)) {
+            let folder = pattern.folder();
+            std::fs::create_dir_all(&folder).map_err(|e| {
+                FrameError::Data(format!(
+                    "{}: cannot create the output folder: {e}",
+                    folder.display()
+                ))
+            })?;
+            remove_stale_temporaries(pattern);
+        }
+        let terminal = std::io::stderr().is_terminal();
+        let quiet = spec.progress == Progress::Quiet;
+        let progress = if quiet || !terminal {
+            ProgressBar::hidden()
+        } else {
+            let bar = ProgressBar::new(frames);
+            bar.set_style(
+                ProgressStyle::with_template(
+                    "{bar:40} {pos}/{len} frames, {elapsed} ({eta} left) {msg}",
+                )
+                .expect("a valid progress template"),
+            );
+            bar
+        };
+        Ok(Outputs {
+            resume: spec.resume,
+            out,
+            mesh,
+            render,
+            stats: spec.stats.clone().map(|p| (p, Vec::new())),
+            progress,
+            plain: !quiet && !terminal,
+        })
+    }
+
+    pub fn resume(&self) -> bool {
+        self.resume
+    }
+
+    /// The skin VDB of a frame, if --out was given and the file exists.
+    pub fn written_skin(&self, frame: i64) -> Option<PathBuf> {
+        let path = self.out.as_ref()?.path(frame);
+        path.is_file().then_some(path)
+    }
+
+    /// Writes one frame: `level_set` is the skin's settled state
+    /// ([`AnySkin::settle`]), `stats` measured on it.
+    pub fn write_frame(
+        &mut self,
+        frame: i64,
+        skin: &AnySkin,
+        level_set: &GridData,
+        stats: &StepStats,
+        started: Instant,
+    ) -> Result<(), FrameError> {
+        if let Some(pattern) = &self.out {
+            let grid = Grid::from_data(level_set)?;
+            let meta = FileMetadata {
+                creator: format!("activeskin {}", env!("CARGO_PKG_VERSION")),
+                has_frame: true,
+                frame,
+            };
+            vdb::write_grids(
+                &pattern.path(frame),
+                &[(&grid, WriteOptions::default())],
+                &meta,
+            )?;
+        }
+        if let Some(pattern) = &self.mesh {
+            skin.mesh().write(&pattern.path(frame))?;
+        }
+        if let Some((pattern, size, camera)) = &mut self.render {
+            let data = level_set;
+            let dx = data.transform.voxel_size() as f32;
+            let target = LevelSetTarget::new(data);
+            let bounds = target.bounds();
+            let frame_box = *camera.get_or_insert_with(|| {
+                bounds.padded(0.25 * (bounds.max - bounds.min).max_element())
+            });
+            render::render(&target, frame_box, View::Perspective, *size, dx)
+                .write(&pattern.path(frame))?;
+        }
+        let ms = started.elapsed().as_secs_f64() * 1e3;
+        let line = serde_json::json!({
+            "frame": frame,
+            "time": skin.time(),
+            "substeps": stats.substeps,
+            "band_nodes": stats.band_nodes,
+            "blocks": stats.blocks,
+            "area": stats.area,
+            "volume": stats.volume,
+            "euler_characteristic": stats.euler_characteristic,
+            "components": stats.components,
+            "milliseconds": ms,
+        });
+        if let Some((path, lines)) = &mut self.stats {
+            lines.extend_from_slice(line.to_string().as_bytes());
+            lines.push(b'\n');
+            write_file(path, lines)?;
+        }
+        if self.plain {
+            println!(
+                "frame {frame}: {} sub-steps, {} band nodes, area {:.4}, volume {:.4}, χ {}, {} component(s), {ms:.0} ms",
+                stats.substeps,
+                stats.band_nodes,
+                stats.area,
+                stats.volume,
+                stats.euler_characteristic,
+                stats.components,
+            );
+        }
+        self.progress.inc(1);
+        Ok(())
+    }
+
+    /// Keeps the stats of frames already written when resuming: the lines before `frame`.
+    pub fn resume_stats(&mut self, frame: i64) -> Result<(), FrameError> {
+        let Some((path, lines)) = &mut self.stats else {
+            return Ok(());
+        };
+        let Ok(old) = std::fs::read_to_string(&*path) else {
+            return Ok(());
+        };
+        for line in old.lines() {
+            let value: serde_json::Value = serde_json::from_str(line).map_err(|_| {
+                FrameError::Data(format!(
+                    "{}: not a stats file (one JSON object per line)",
+                    path.display()
+                ))
+            })?;
+            if value["frame"].as_i64().is_some_and(|f| f < frame) {
+                lines.extend_from_slice(line.as_bytes());
+                lines.push(b'\n');
+            }
+        }
+        Ok(())
+    }
+
+    pub fn skip(&self, frames: u64) {
+        self.progress.inc(frames);
+    }
+
+    pub fn finish(&self) {
+        self.progress.finish_and_clear();
+    }
+}
+
+/// Removes the temporary files a killed run left behind for this pattern's frames
+/// (`.NAME.PID.tmp`, see [`crate::io::temporary_path`]).
+fn remove_stale_temporaries(pattern: &FramePattern) {
+    let folder = pattern.folder();
+    let Ok(entries) = std::fs::read_dir(&folder) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let Some(inner) = name.strip_prefix('.').and_then(|n| n.strip_suffix(".tmp")) else {
+            continue;
+        };
+        let Some((frame_file, pid)) = inner.rsplit_once('.') else {
+            continue;
+        };
+        let frame_path = pattern.path(0).with_file_name(frame_file);
+        let ours = pid.bytes().all(|b| b.is_ascii_digit())
+            && frame_path
+                .to_str()
+                .and_then(|p| pattern.frame_of(p))
+                .is_some();
+        if ours {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+}
+
+fn write_file(path: &Path, bytes: &[u8]) -> Result<(), FrameError> {
+    crate::io::write_atomically(path, |tmp| {
+        std::fs::File::create(tmp)
+            .and_then(|mut f| f.write_all(bytes))
+            .map_err(|e| e.to_string())
+    })
+    .map_err(|m| FrameError::Data(format!("{}: {m}", path.display())))
+}
+
+/// A usage error unless `pattern`'s files end in one of `extensions`.
+fn require_extension(
+    flag: &str,
+    pattern: &FramePattern,
+    what: &str,
+    extensions: &[&str],
+) -> Result<(), FrameError> {
+    let name = pattern.path(0);
+    let ext = name.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if !extensions.iter().any(|e| ext.eq_ignore_ascii_case(e)) {
+        return Err(FrameError::Usage(format!(
+            "{flag} '{}': {what} must end in .{}",
+            name.display(),
+            extensions.join(" or .")
+        )));
+    }
+    Ok(())
+}

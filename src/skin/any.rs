@@ -1,0 +1,61 @@
+//! A skin whose storage (f32 or 16-bit fixed point) is chosen at run time.
+
+use super::{Skin, SkinError, SkinParams, SpeedParams, StepStats};
+use crate::grid::{Fixed16, Precision};
+use crate::mesh::Mesh;
+use crate::target::Target;
+use crate::volume::GridData;
+
+/// A skin whose storage was chosen at run time.
+pub enum AnySkin {
+    F32(Skin<f32>),
+    Fixed16(Skin<Fixed16>),
+}
+
+macro_rules! each {
+    ($self:expr, $s:ident => $body:expr) => {
+        match $self {
+            AnySkin::F32($s) => $body,
+            AnySkin::Fixed16($s) => $body,
+        }
+    };
+}
+
+impl AnySkin {
+    pub fn new(start: &dyn Target, params: SkinParams) -> Self {
+        match params.precision {
+            Precision::F32 => AnySkin::F32(Skin::new(start, params)),
+            Precision::Fixed16 => AnySkin::Fixed16(Skin::new(start, params)),
+        }
+    }
+    pub fn advance(&mut self, target: &dyn Target, duration: f64) -> StepStats {
+        each!(self, s => s.advance(target, duration))
+    }
+    pub fn stats(&self) -> StepStats {
+        each!(self, s => s.stats())
+    }
+    pub fn mesh(&self) -> &Mesh {
+        each!(self, s => s.mesh())
+    }
+    pub fn to_level_set(&self) -> GridData {
+        each!(self, s => s.to_level_set())
+    }
+    pub fn time(&self) -> f64 {
+        each!(self, s => s.time())
+    }
+    pub fn memory_bytes(&self) -> usize {
+        each!(self, s => s.memory_bytes())
+    }
+    pub fn set_speed(&mut self, speed: SpeedParams) {
+        each!(self, s => s.set_speed(speed))
+    }
+    pub fn restore(&mut self, data: &GridData) -> Result<(), SkinError> {
+        each!(self, s => s.restore(data))
+    }
+    pub fn set_time(&mut self, time: f64) {
+        each!(self, s => s.set_time(time))
+    }
+    pub fn settle(&mut self) -> GridData {
+        each!(self, s => s.settle())
+    }
+}

@@ -1,0 +1,108 @@
+//! The skin as a VDB level set and back: export (re-distanced next to the skin), restore,
+//! and the canonical state every frame ends in.
+
+use glam::IVec3;
+
+use super::{band, Skin, SkinError};
+use crate::grid::{Potential, BLOCK_DIM, BLOCK_NODES};
+use crate::mesh::TriangleIndex;
+use crate::volume::{GridClass, GridData, Tile, Transform, MASK_WORDS};
+
+impl<P: Potential> Skin<P> {
+    /// The skin as a narrow-band level set: signed distance φ = f·wΔx in world units,
+    /// active where |φ| < wΔx, background wΔx, inside tiles at −wΔx (grid `surface`).
+    /// The nodes next to the skin are re-distanced from its mesh first: the solver keeps
+    /// their values (they define the skin), which are not a distance in a thin neck, where
+    /// checkLevelSet would flag them.
+    pub fn to_level_set(&self) -> GridData {
+        let dx = self.params.dx;
+        let w = self.params.band_width;
+        let background = self.background();
+        let mut grid = self.grid.clone();
+        let index = TriangleIndex::new(&self.mesh, dx);
+        band::redistance(
+            &mut grid,
+            w,
+            |ijk, bound| {
+                index.distance_within(self.xf.apply(ijk.as_vec3()), 1.001 * bound * dx) / dx
+            },
+            &mut Vec::new(),
+        );
+        let blocks = grid.blocks();
+        let mut data = GridData {
+            name: "surface".into(),
+            class: GridClass::LevelSet,
+            background,
+            transform: Transform::uniform(f64::from(dx), self.xf.origin.as_dvec3().to_array()),
+            uniform_linear: true,
+            leaf_origins: Vec::with_capacity(blocks.len()),
+            leaf_values: Vec::with_capacity(blocks.len() * BLOCK_NODES),
+            leaf_masks: Vec::with_capacity(blocks.len()),
+            tiles: Vec::new(),
+        };
+        for block in blocks {
+            data.leaf_origins.push((block.coord * BLOCK_DIM).to_array());
+            let mut mask = [0u64; MASK_WORDS];
+            for (offset, v) in block.values.iter().enumerate() {
+                let f = v.to_f32();
+                data.leaf_values.push(if f.abs() >= 1.0 {
+                    f.signum() * background
+                } else {
+                    f * background
+                });
+                if f.abs() < 1.0 {
+                    mask[offset >> 6] |= 1 << (offset & 63);
+                }
+            }
+            data.leaf_masks.push(mask);
+        }
+        let mut inside: Vec<IVec3> = grid.inside_tiles().iter().copied().collect();
+        inside.sort_unstable_by_key(|c| c.to_array());
+        data.tiles = inside
+            .into_iter()
+            .map(|c| Tile {
+                origin: (c * BLOCK_DIM).to_array(),
+                dim: BLOCK_DIM as u32,
+                value: -background,
+                active: false,
+            })
+            .collect();
+        data
+    }
+
+    /// Replaces the potential by a level set as [`Skin::to_level_set`] writes it (same
+    /// voxel size, origin at world zero), then rebuilds the tube and the mesh. `--resume`
+    /// reads the last frame back this way; an uninterrupted run restores each frame it
+    /// writes too, so that both runs go on from the same state, bit for bit.
+    pub fn restore(&mut self, data: &GridData) -> Result<(), SkinError> {
+        let dx = f64::from(self.params.dx);
+        let found = data.transform.voxel_size();
+        let origin = data.transform.index_to_world([0.0; 3]);
+        if !data.uniform_linear || (found - dx).abs() > 1e-9 * dx || origin != [0.0; 3] {
+            return Err(SkinError::Incompatible(format!(
+                "grid '{}' has voxel size {found} and origin {origin:?}, the skin {dx} at the world origin",
+                data.name
+            )));
+        }
+        let scale = self.background();
+        self.grid.import(data, |phi| phi / scale);
+        crate::grid::tube::upkeep(&mut self.grid);
+        self.polygonize();
+        Ok(())
+    }
+
+    /// Ends a frame: the skin takes the state its VDB level set holds
+    /// ([`Skin::to_level_set`], then [`Skin::restore`]), which is returned for writing.
+    /// Every frame ends so, written or not, so the skin never depends on its outputs.
+    pub fn settle(&mut self) -> GridData {
+        let level_set = self.to_level_set();
+        self.restore(&level_set)
+            .expect("a skin's own level set has its voxel size and origin");
+        level_set
+    }
+
+    /// The exported level set's background, w·Δx: the world distance of f = 1.
+    fn background(&self) -> f32 {
+        crate::volume::narrow_band_background(self.params.band_width, self.params.dx)
+    }
+}
