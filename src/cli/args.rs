@@ -20,7 +20,7 @@ pub struct PhysicsArgs {
     #[arg(long, default_value_t = activeskin::skin::speed::DEFAULT_ALPHA)]
     pub alpha: f32,
     /// Surface tension β (world units²/s): smooths, shrinks thin parts and small bubbles
-    /// [default: 4·Δx² per second, the same smoothing in voxels on every grid].
+    /// [default: 8·Δx² per second, the same smoothing in voxels on every grid].
     #[arg(long)]
     pub beta: Option<f32>,
     /// Volume preservation gain γ_V (world units/s).

@@ -154,6 +154,12 @@ impl Outputs {
                 .write(&pattern.path(frame))?;
         }
         let ms = started.elapsed().as_secs_f64() * 1e3;
+        // Measured on the mesh written (the settled skin's), like χ and the components.
+        let check = if self.stats.is_some() {
+            skin.mesh().check()
+        } else {
+            Default::default()
+        };
         let line = serde_json::json!({
             "frame": frame,
             "time": skin.time(),
@@ -164,6 +170,8 @@ impl Outputs {
             "volume": stats.volume,
             "euler_characteristic": stats.euler_characteristic,
             "components": stats.components,
+            "manifold": check.manifold(),
+            "clean": check.is_clean(),
             "milliseconds": ms,
         });
         if let Some((path, lines)) = &mut self.stats {

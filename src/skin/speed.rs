@@ -37,9 +37,10 @@ pub const DEFAULT_ALPHA: f32 = 4.0;
 
 /// Default surface tension in voxels²/s: β = this × Δx². Expressed per voxel, tension
 /// smooths the same number of voxels whatever the cell, and its explicit step bound
-/// (Δx²/(6β), §4.8) is the same 1/24 s on every grid: at 24 fps it never needs more than
-/// the two sub-steps the default safety factor takes.
-pub const DEFAULT_TENSION: f32 = 4.0;
+/// (safety × Δx²/(6β), §4.8) is the same 1/96 s on every grid: at 24 fps tension never
+/// asks for more than 4 sub-steps a frame. (4 Δx²/s takes 2 sub-steps but leaves the
+/// interior voids of a start-up particle density twice as long.)
+pub const DEFAULT_TENSION: f32 = 8.0;
 
 impl SpeedParams {
     /// The defaults on voxels of size `dx`: α = [`DEFAULT_ALPHA`], β =
