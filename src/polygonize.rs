@@ -52,13 +52,6 @@ fn inside(v: f32) -> bool {
     v < 0.0
 }
 
-/// Where the edge from a node of value `fa` to one of value `fb` (of the other side)
-/// crosses zero.
-#[inline]
-fn crossing(fa: f32, fb: f32) -> f32 {
-    fa / (fa - fb)
-}
-
 /// Closest a mesh vertex comes to a node, in voxels: a node at exactly 0 (outside) would
 /// otherwise put the vertices of all its crossed edges at one point and their triangles
 /// at zero area. Only the mesh keeps this margin; the crossing points the solver reads
@@ -101,7 +94,7 @@ impl Polygonizer {
                         if inside(fa) == inside(fb) {
                             continue;
                         }
-                        let t = crossing(fa, fb);
+                        let t = fa / (fa - fb);
                         let along = IVec3::AXES[axis].as_vec3();
                         let at = |t: f32| xf.apply(base.as_vec3() + l.as_vec3() + along * t);
                         let g = gradient(halo, l).lerp(gradient(halo, m), t);

@@ -278,6 +278,15 @@ impl Grid {
     }
 }
 
+/// The file metadata of frame `frame` of a sequence activeskin writes.
+pub fn frame_metadata(frame: i64) -> FileMetadata {
+    FileMetadata {
+        creator: format!("activeskin {}", env!("CARGO_PKG_VERSION")),
+        has_frame: true,
+        frame,
+    }
+}
+
 /// How one grid is stored by [`write_grids`].
 #[derive(Debug, Clone, Copy, Default)]
 pub struct WriteOptions {

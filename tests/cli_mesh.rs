@@ -4,20 +4,13 @@
 
 mod common;
 
-use std::path::Path;
-use std::process::Command;
+use common::activeskin;
 
-use activeskin::mesh::Mesh;
+use std::path::Path;
+
 use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
 use activeskin::volume::GridClass;
 use glam::Vec3;
-
-fn activeskin(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_activeskin"))
-        .args(args)
-        .output()
-        .expect("run activeskin")
-}
 
 fn write(grid: &Grid, path: &Path) {
     let meta = FileMetadata {
@@ -45,31 +38,10 @@ fn openvdb_area(grid: &Grid) -> f64 {
     tris + quads
 }
 
-/// Reads our binary PLY back (x y z nx ny nz floats; uchar count, int indices) and checks
-/// it is closed and manifold; returns its area and volume.
+/// Reads our binary PLY back and checks it is a clean surface; returns its area and
+/// volume.
 fn read_ply(path: &Path) -> (f64, f64) {
-    let bytes = std::fs::read(path).unwrap();
-    let text = String::from_utf8_lossy(&bytes);
-    let end = text.find("end_header\n").unwrap() + "end_header\n".len();
-    let count = |key: &str| -> usize {
-        let line = text.lines().find(|l| l.starts_with(key)).unwrap();
-        line.rsplit(' ').next().unwrap().parse().unwrap()
-    };
-    let (nv, nf) = (count("element vertex"), count("element face"));
-    let word = |o: usize| -> [u8; 4] { bytes[o..o + 4].try_into().unwrap() };
-    let mut mesh = Mesh::default();
-    for v in 0..nv {
-        let o = end + v * 24;
-        let f = |k: usize| f32::from_le_bytes(word(o + 4 * k));
-        mesh.positions.push(Vec3::new(f(0), f(1), f(2)));
-    }
-    let faces = end + nv * 24;
-    for f in 0..nf {
-        let o = faces + f * 13;
-        assert_eq!(bytes[o], 3);
-        let u = |k: usize| u32::from_le_bytes(word(o + 1 + 4 * k));
-        mesh.triangles.push([u(0), u(1), u(2)]);
-    }
+    let mesh = common::read_mesh(path).expect("a PLY with faces");
     let check = mesh.check();
     assert!(check.is_clean(), "{check}");
     (mesh.area(), mesh.volume())

@@ -11,7 +11,6 @@ use std::process::{Command, Output};
 
 use common::{activeskin, assert_fails, stderr};
 
-use activeskin::mesh::Mesh;
 use activeskin::target::{sample, Sphere, Target};
 use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
 use activeskin::volume::{GridClass, GridData};
@@ -42,29 +41,6 @@ fn read_skin(path: &Path) -> GridData {
         .unwrap()
         .to_data()
         .unwrap()
-}
-
-/// The mesh of a frame, read back from its OBJ.
-fn read_obj(path: &Path) -> Mesh {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut mesh = Mesh::default();
-    for line in text.lines() {
-        let mut words = line.split_whitespace();
-        match words.next() {
-            Some("v") => {
-                let v: Vec<f32> = words.map(|w| w.parse().unwrap()).collect();
-                mesh.positions.push(Vec3::new(v[0], v[1], v[2]));
-            }
-            Some("f") => {
-                let f: Vec<u32> = words
-                    .map(|w| w.split('/').next().unwrap().parse::<u32>().unwrap() - 1)
-                    .collect();
-                mesh.triangles.push([f[0], f[1], f[2]]);
-            }
-            _ => {}
-        }
-    }
-    mesh
 }
 
 #[test]
@@ -131,7 +107,7 @@ fn moving_sphere_every_frame_valid_and_on_target() {
             center: Vec3::splat(1.5) + Vec3::new(-0.1 + 0.2 * t, 0.0, 0.0),
             radius: 0.3,
         };
-        let mesh = read_obj(&dir.path().join(format!("skin.{frame:04}.obj")));
+        let mesh = common::read_mesh(&dir.path().join(format!("skin.{frame:04}.obj"))).unwrap();
         let check = mesh.check();
         assert!(check.is_clean(), "frame {frame}: {check}");
         let max = mesh
@@ -460,7 +436,7 @@ fn frames_with_other_voxel_sizes_and_rotated_transforms_are_sampled_in_world_spa
         radius,
     };
     for frame in 1..=4 {
-        let mesh = read_obj(&dir.path().join(format!("out/ball.{frame:04}.obj")));
+        let mesh = common::read_mesh(&dir.path().join(format!("out/ball.{frame:04}.obj"))).unwrap();
         let max = mesh
             .positions
             .iter()

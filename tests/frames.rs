@@ -76,35 +76,36 @@ fn outputs_do_not_change_a_skin_on_a_moving_vdb_target() {
     assert_outputs_do_not_change_the_skin(&["skin", "--target", &target, "--alpha", "24"], 8);
 }
 
-#[test]
-fn outputs_do_not_change_a_skin_on_particles() {
-    let particles = format!("{DATA}/data/splash/drop.####.ply");
-    let command = [
+/// The drop-and-splash sample of `data/`.
+fn splash() -> String {
+    format!("{DATA}/data/splash/drop.####.ply")
+}
+
+/// The particles command on `particles` as the demo dresses them (α = 48).
+fn splash_command(particles: &str) -> [&str; 7] {
+    [
         "particles",
         "--particles",
-        &particles,
+        particles,
         "--radius",
         "0.04",
         "--alpha",
         "48",
-        "--beta",
-        "0.0003",
-    ];
+    ]
+}
+
+#[test]
+fn outputs_do_not_change_a_skin_on_particles() {
+    let particles = splash();
+    let mut command = splash_command(&particles).to_vec();
+    command.extend(["--beta", "0.0003"]);
     assert_outputs_do_not_change_the_skin(&command, 6);
 }
 
 #[test]
 fn a_resumed_particle_run_repeats_the_whole_run() {
-    let particles = format!("{DATA}/data/splash/drop.####.ply");
-    let command = [
-        "particles",
-        "--particles",
-        &particles,
-        "--radius",
-        "0.04",
-        "--alpha",
-        "48",
-    ];
+    let particles = splash();
+    let command = splash_command(&particles);
     let whole = scratch();
     run(&command, "1-8", whole.path(), &["out"], false);
     let part = scratch();

@@ -100,7 +100,7 @@ pub struct OutputArgs {
     #[arg(long, default_value = "640x360")]
     pub render_size: String,
     /// One JSON object per frame (frame, time, sub-steps, band nodes, blocks, area,
-    /// volume, Euler characteristic, components, milliseconds).
+    /// volume, Euler characteristic, components, manifold, clean, milliseconds).
     #[arg(long)]
     pub stats: Option<PathBuf>,
     /// Continue from the last skin VDB already written by --out.

@@ -6,7 +6,7 @@ use super::FrameError;
 use crate::particles;
 use crate::sequence::FramePattern;
 use crate::target::{Density, FogTarget, LevelSetTarget, Target};
-use crate::vdb::{self, FileMetadata, Grid, WriteOptions};
+use crate::vdb::{self, Grid, WriteOptions};
 use crate::volume::{GridClass, GridData};
 
 /// An input sequence: its pattern, the frames found on disk (sorted), the range to run.
@@ -145,11 +145,7 @@ impl ParticleInput {
         };
         if let Some(out) = &self.density_out {
             let fog = Grid::from_data(&density.to_fog_volume(self.dx))?;
-            let meta = FileMetadata {
-                creator: format!("activeskin {}", env!("CARGO_PKG_VERSION")),
-                has_frame: true,
-                frame,
-            };
+            let meta = vdb::frame_metadata(frame);
             vdb::write_grids(&out.path(frame), &[(&fog, WriteOptions::default())], &meta)?;
         }
         Ok(density)

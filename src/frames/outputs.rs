@@ -12,7 +12,7 @@ use crate::render::{self, View};
 use crate::sequence::FramePattern;
 use crate::skin::{AnySkin, StepStats};
 use crate::target::{Aabb, LevelSetTarget, Target};
-use crate::vdb::{self, FileMetadata, Grid, WriteOptions};
+use crate::vdb::{self, Grid, WriteOptions};
 use crate::volume::GridData;
 
 /// How progress is shown.
@@ -128,11 +128,7 @@ impl Outputs {
     ) -> Result<(), FrameError> {
         if let Some(pattern) = &self.out {
             let grid = Grid::from_data(level_set)?;
-            let meta = FileMetadata {
-                creator: format!("activeskin {}", env!("CARGO_PKG_VERSION")),
-                has_frame: true,
-                frame,
-            };
+            let meta = vdb::frame_metadata(frame);
             vdb::write_grids(
                 &pattern.path(frame),
                 &[(&grid, WriteOptions::default())],

@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use super::{node_offset, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES, HALO_DIM};
 
 #[inline]
-pub(crate) fn in_band(f: f32) -> bool {
+fn in_band(f: f32) -> bool {
     f.abs() < 1.0
 }
 
