@@ -116,3 +116,36 @@ fn a_resumed_particle_run_repeats_the_whole_run() {
         assert!(a == b, "frame {frame} differs after resuming at frame 5");
     }
 }
+
+#[test]
+fn a_frame_whose_mesh_failed_is_recomputed_on_resume() {
+    // The skin VDB is written last: it tells --resume where to restart, so a frame whose
+    // other outputs did not all reach the disk must not have one.
+    let particles = splash();
+    let command = splash_command(&particles);
+    let whole = scratch();
+    run(&command, "1-5", whole.path(), &["out"], false);
+
+    let part = scratch();
+    let blocker = part.path().join("skin.0003.obj");
+    std::fs::create_dir(&blocker).unwrap(); // the mesh of frame 3 cannot be renamed there
+    let mut args: Vec<String> = command.iter().map(|s| s.to_string()).collect();
+    let file = |name: &str| part.path().join(name).to_string_lossy().into_owned();
+    args.extend(["--frames", "1-5", "--mesh", &file("skin.####.obj")].map(String::from));
+    args.extend(["--out", &file("skin.####.vdb"), "-q"].map(String::from));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let failed = activeskin(&args);
+    assert!(!failed.status.success());
+    assert!(part.path().join("skin.0002.vdb").is_file());
+    assert!(
+        !part.path().join("skin.0003.vdb").exists(),
+        "frame 3 marked done"
+    );
+
+    std::fs::remove_dir(&blocker).unwrap();
+    run(&command, "1-5", part.path(), &["out"], true);
+    let (a, b) = (meshes(whole.path(), 1..=5), meshes(part.path(), 1..=5));
+    for (frame, (a, b)) in (1..).zip(a.iter().zip(&b)) {
+        assert!(a == b, "frame {frame} differs after resuming");
+    }
+}

@@ -126,15 +126,6 @@ impl Outputs {
         stats: &StepStats,
         started: Instant,
     ) -> Result<(), FrameError> {
-        if let Some(pattern) = &self.out {
-            let grid = Grid::from_data(level_set)?;
-            let meta = vdb::frame_metadata(frame);
-            vdb::write_grids(
-                &pattern.path(frame),
-                &[(&grid, WriteOptions::default())],
-                &meta,
-            )?;
-        }
         if let Some(pattern) = &self.mesh {
             skin.mesh().write(&pattern.path(frame))?;
         }
@@ -174,6 +165,18 @@ impl Outputs {
             lines.extend_from_slice(line.to_string().as_bytes());
             lines.push(b'\n');
             write_file(path, lines)?;
+        }
+        // The skin VDB last: --resume restarts after the last one found, so every other
+        // output of its frame must already be on disk (a kill between them used to leave
+        // that frame without its mesh or stats line).
+        if let Some(pattern) = &self.out {
+            let grid = Grid::from_data(level_set)?;
+            let meta = vdb::frame_metadata(frame);
+            vdb::write_grids(
+                &pattern.path(frame),
+                &[(&grid, WriteOptions::default())],
+                &meta,
+            )?;
         }
         if self.plain {
             println!(
