@@ -235,3 +235,134 @@ pub fn mesh_vdb(data: &GridData, value: impl Fn(f32) -> f32) -> Mesh {
     }
     mesh
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::{Fixed16, BLOCK_NODES};
+    use hashbrown::HashMap;
+
+    /// A repeatable rough potential on nodes `lo..hi`: a wavy field a third of a voxel
+    /// steep, plus noise, in steps of 1/16 (so many nodes sit at exactly 0), +1 outside.
+    fn rough(seed: u64, lo: IVec3, hi: IVec3) -> impl Fn(IVec3) -> f32 {
+        move |p: IVec3| {
+            if p.cmplt(lo).any() || p.cmpge(hi).any() {
+                return 1.0;
+            }
+            let q = (p - lo).as_vec3();
+            let centre = (hi - lo).as_vec3() * 0.5;
+            let wave = (q.x * 0.7).sin() + (q.y * 0.5 + seed as f32).cos() + (q.z * 0.9).sin();
+            let smooth = ((q - centre).length() - 6.0 + wave) / 3.0;
+            let mut h = (p.x as u64).wrapping_mul(73_856_093)
+                ^ (p.y as u64).wrapping_mul(19_349_663)
+                ^ (p.z as u64).wrapping_mul(83_492_791)
+                ^ seed.wrapping_mul(2_654_435_761);
+            h ^= h >> 13;
+            h = h.wrapping_mul(0x5bd1_e995);
+            let noise = ((h >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 0.4;
+            ((smooth + noise) * 16.0).round().clamp(-16.0, 16.0) / 16.0
+        }
+    }
+
+    /// Triangles as position triples, each rotated to start at its smallest corner (so
+    /// the winding is kept), sorted.
+    fn canonical(mesh: &Mesh) -> Vec<[[u32; 3]; 3]> {
+        let mut out: Vec<[[u32; 3]; 3]> = mesh
+            .triangles
+            .iter()
+            .map(|t| {
+                let c = t.map(|i| mesh.positions[i as usize].to_array().map(f32::to_bits));
+                let first = (0..3).min_by_key(|&k| c[k]).unwrap();
+                [c[first], c[(first + 1) % 3], c[(first + 2) % 3]]
+            })
+            .collect();
+        out.sort_unstable();
+        out
+    }
+
+    /// Marching cubes over every cube of the box at once, with no blocks, halos or edge
+    /// tables: the same case table and vertex placement.
+    fn dense(value: &dyn Fn(IVec3) -> f32, lo: IVec3, hi: IVec3, xf: IndexToWorld) -> Mesh {
+        let mut mesh = Mesh::default();
+        let mut vertex: HashMap<(IVec3, usize), u32> = HashMap::new();
+        for x in lo.x - 1..hi.x + 1 {
+            for y in lo.y - 1..hi.y + 1 {
+                for z in lo.z - 1..hi.z + 1 {
+                    let l = IVec3::new(x, y, z);
+                    let mut signs = 0u8;
+                    for c in 0..8 {
+                        if inside(value(l + corner_offset(c))) {
+                            signs |= 1 << c;
+                        }
+                    }
+                    for t in cases::table()[signs as usize].triangles() {
+                        let tri = t.map(|e| {
+                            let (a, _) = EDGE_CORNERS[e as usize];
+                            let (node, axis) = (l + corner_offset(a), edge_axis(e as usize));
+                            *vertex.entry((node, axis)).or_insert_with(|| {
+                                let (fa, fb) = (value(node), value(node + IVec3::AXES[axis]));
+                                let t = (fa / (fa - fb)).clamp(VERTEX_MARGIN, 1.0 - VERTEX_MARGIN);
+                                let along = IVec3::AXES[axis].as_vec3();
+                                mesh.positions.push(xf.apply(node.as_vec3() + along * t));
+                                mesh.positions.len() as u32 - 1
+                            })
+                        });
+                        mesh.triangles.push(tri);
+                    }
+                }
+            }
+        }
+        mesh
+    }
+
+    fn block_by_block_matches_dense<P: Potential>() {
+        let xf = IndexToWorld {
+            origin: Vec3::new(0.25, -1.0, 0.5),
+            dx: 0.1,
+        };
+        for seed in 0..6u64 {
+            // Boxes straddling blocks at odd offsets, negative coordinates included.
+            let lo = IVec3::new(-11, 3, -6) + IVec3::splat(seed as i32);
+            let hi = lo + IVec3::new(19, 17, 21);
+            let value = rough(seed, lo, hi);
+            let mut grid: SparseGrid<P> = SparseGrid::new();
+            let (blo, bhi) = (lo >> IVec3::splat(3), (hi - IVec3::ONE) >> IVec3::splat(3));
+            for x in blo.x..=bhi.x {
+                for y in blo.y..=bhi.y {
+                    for z in blo.z..=bhi.z {
+                        grid.touch(IVec3::new(x, y, z));
+                    }
+                }
+            }
+            for block in grid.blocks_mut() {
+                let base = block.coord * BLOCK_DIM;
+                for offset in 0..BLOCK_NODES {
+                    block.values[offset] = P::from_f32(value(base + offset_coords(offset)));
+                }
+            }
+            crate::grid::tube::upkeep(&mut grid);
+            let mut mesh = Mesh::default();
+            Polygonizer::default().run(&grid, xf, &mut mesh, &mut Crossings::default());
+            let zeros = (lo.x..hi.x)
+                .flat_map(|x| (lo.y..hi.y).flat_map(move |y| (lo.z..hi.z).map(move |z| (x, y, z))))
+                .filter(|&(x, y, z)| value(IVec3::new(x, y, z)) == 0.0)
+                .count();
+            assert!(zeros > 20, "seed {seed}: only {zeros} exact zeros");
+            let reference = dense(&|p| P::from_f32(value(p)).to_f32(), lo, hi, xf);
+            assert!(mesh.triangles.len() > 500, "seed {seed}");
+            assert_eq!(canonical(&mesh), canonical(&reference), "seed {seed}");
+            let check = mesh.check();
+            assert!(check.is_clean(), "seed {seed}: {check}");
+        }
+    }
+
+    #[test]
+    fn rough_f32_potentials_mesh_the_same_block_by_block_and_in_one_dense_pass() {
+        block_by_block_matches_dense::<f32>();
+    }
+
+    #[test]
+    fn rough_fixed16_potentials_mesh_the_same_block_by_block_and_in_one_dense_pass() {
+        block_by_block_matches_dense::<Fixed16>();
+    }
+}
