@@ -195,17 +195,8 @@ impl Grid {
     }
 
     pub fn to_data(&self) -> Result<GridData, VdbError> {
-        let mut data = GridData {
-            name: String::new(),
-            class: GridClass::Unknown,
-            background: 0.0,
-            transform: Transform::uniform(1.0, [0.0; 3]),
-            uniform_linear: true,
-            leaf_origins: Vec::new(),
-            leaf_values: Vec::new(),
-            leaf_masks: Vec::new(),
-            tiles: Vec::new(),
-        };
+        let transform = Transform::uniform(1.0, [0.0; 3]);
+        let mut data = GridData::empty("", GridClass::Unknown, 0.0, transform);
         self.copy_into(&mut data)?;
         Ok(data)
     }

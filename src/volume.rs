@@ -78,6 +78,30 @@ pub struct GridData {
 }
 
 impl GridData {
+    /// A grid with no leaves or tiles yet, on a uniform linear `transform`.
+    pub fn empty(name: &str, class: GridClass, background: f32, transform: Transform) -> Self {
+        GridData {
+            name: name.into(),
+            class,
+            background,
+            transform,
+            uniform_linear: true,
+            leaf_origins: Vec::new(),
+            leaf_values: Vec::new(),
+            leaf_masks: Vec::new(),
+            tiles: Vec::new(),
+        }
+    }
+
+    /// Appends a leaf: its origin (a multiple of 8), `LEAF_VOXELS` values in OpenVDB's
+    /// order, its active mask.
+    pub fn push_leaf(&mut self, origin: [i32; 3], values: &[f32], mask: [u64; MASK_WORDS]) {
+        assert_eq!(values.len(), LEAF_VOXELS, "a leaf holds 8³ values");
+        self.leaf_origins.push(origin);
+        self.leaf_values.extend_from_slice(values);
+        self.leaf_masks.push(mask);
+    }
+
     pub fn leaf_count(&self) -> usize {
         self.leaf_origins.len()
     }

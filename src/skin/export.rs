@@ -28,33 +28,24 @@ impl<P: Potential> Skin<P> {
             },
             &mut Vec::new(),
         );
-        let blocks = grid.blocks();
-        let mut data = GridData {
-            name: "surface".into(),
-            class: GridClass::LevelSet,
-            background,
-            transform: Transform::uniform(f64::from(dx), self.xf.origin.as_dvec3().to_array()),
-            uniform_linear: true,
-            leaf_origins: Vec::with_capacity(blocks.len()),
-            leaf_values: Vec::with_capacity(blocks.len() * BLOCK_NODES),
-            leaf_masks: Vec::with_capacity(blocks.len()),
-            tiles: Vec::new(),
-        };
-        for block in blocks {
-            data.leaf_origins.push((block.coord * BLOCK_DIM).to_array());
+        let origin = self.xf.origin.as_dvec3().to_array();
+        let transform = Transform::uniform(f64::from(dx), origin);
+        let mut data = GridData::empty("surface", GridClass::LevelSet, background, transform);
+        let mut values = [0.0f32; BLOCK_NODES];
+        for block in grid.blocks() {
             let mut mask = [0u64; MASK_WORDS];
-            for (offset, v) in block.values.iter().enumerate() {
+            for (offset, (out, v)) in values.iter_mut().zip(&block.values).enumerate() {
                 let f = v.to_f32();
-                data.leaf_values.push(if f.abs() >= 1.0 {
+                *out = if f.abs() >= 1.0 {
                     f.signum() * background
                 } else {
                     f * background
-                });
+                };
                 if f.abs() < 1.0 {
                     mask[offset >> 6] |= 1 << (offset & 63);
                 }
             }
-            data.leaf_masks.push(mask);
+            data.push_leaf((block.coord * BLOCK_DIM).to_array(), &values, mask);
         }
         let mut inside: Vec<IVec3> = grid.inside_tiles().iter().copied().collect();
         inside.sort_unstable_by_key(|c| c.to_array());

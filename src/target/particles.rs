@@ -7,6 +7,7 @@ use glam::{IVec3, Vec3};
 use hashbrown::{HashMap, HashSet};
 use rayon::prelude::*;
 
+use crate::grid::offset_coords;
 use crate::volume::{GridClass, GridData, Transform, LEAF_VOXELS, MASK_WORDS};
 
 use super::{Aabb, Target};
@@ -138,11 +139,7 @@ impl Density {
                 let mut mask = [0u64; MASK_WORDS];
                 let values: Vec<f32> = (0..LEAF_VOXELS)
                     .map(|offset| {
-                        let l = IVec3::new(
-                            offset as i32 >> 6,
-                            (offset as i32 >> 3) & 7,
-                            offset as i32 & 7,
-                        );
+                        let l = offset_coords(offset);
                         let g = self.density((origin + l).as_vec3() * dx);
                         if g > 0.0 {
                             mask[offset >> 6] |= 1 << (offset & 63);
@@ -154,21 +151,10 @@ impl Density {
             })
             .filter(|(_, _, mask)| mask.iter().any(|&w| w != 0))
             .collect();
-        let mut data = GridData {
-            name: "density".into(),
-            class: GridClass::FogVolume,
-            background: 0.0,
-            transform: Transform::uniform(f64::from(dx), [0.0; 3]),
-            uniform_linear: true,
-            leaf_origins: Vec::with_capacity(leaves.len()),
-            leaf_values: Vec::with_capacity(leaves.len() * LEAF_VOXELS),
-            leaf_masks: Vec::with_capacity(leaves.len()),
-            tiles: Vec::new(),
-        };
+        let transform = Transform::uniform(f64::from(dx), [0.0; 3]);
+        let mut data = GridData::empty("density", GridClass::FogVolume, 0.0, transform);
         for (origin, values, mask) in leaves {
-            data.leaf_origins.push(origin.to_array());
-            data.leaf_values.extend_from_slice(&values);
-            data.leaf_masks.push(mask);
+            data.push_leaf(origin.to_array(), &values, mask);
         }
         data
     }

@@ -4,6 +4,7 @@ use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
 use super::Target;
+use crate::grid::offset_coords;
 use crate::volume::{GridClass, GridData, Tile, Transform, LEAF_VOXELS, MASK_WORDS};
 
 /// The target's distance on voxels of `dx` (origin at world zero), active within
@@ -43,11 +44,7 @@ pub fn level_set(target: &dyn Target, dx: f32, half_width: f32) -> GridData {
             let mut values = Box::new([0.0f32; LEAF_VOXELS]);
             let mut mask = [0u64; MASK_WORDS];
             for (offset, v) in values.iter_mut().enumerate() {
-                let l = IVec3::new(
-                    offset as i32 >> 6,
-                    (offset as i32 >> 3) & 7,
-                    offset as i32 & 7,
-                );
+                let l = offset_coords(offset);
                 let d = target.distance((origin + l).as_vec3() * dx);
                 *v = d.clamp(-background, background);
                 if d.abs() < background {
@@ -64,23 +61,12 @@ pub fn level_set(target: &dyn Target, dx: f32, half_width: f32) -> GridData {
             Sampled::Leaf(origin, values, mask)
         })
         .collect();
-    let mut data = GridData {
-        name: "surface".into(),
-        class: GridClass::LevelSet,
-        background,
-        transform: Transform::uniform(f64::from(dx), [0.0; 3]),
-        uniform_linear: true,
-        leaf_origins: Vec::new(),
-        leaf_values: Vec::new(),
-        leaf_masks: Vec::new(),
-        tiles: Vec::new(),
-    };
+    let transform = Transform::uniform(f64::from(dx), [0.0; 3]);
+    let mut data = GridData::empty("surface", GridClass::LevelSet, background, transform);
     for s in sampled {
         match s {
             Sampled::Leaf(origin, values, mask) => {
-                data.leaf_origins.push(origin.to_array());
-                data.leaf_values.extend_from_slice(&values[..]);
-                data.leaf_masks.push(mask);
+                data.push_leaf(origin.to_array(), &values[..], mask)
             }
             Sampled::Inside(origin) => data.tiles.push(Tile {
                 origin: origin.to_array(),
