@@ -13,29 +13,29 @@ pub mod tube;
 use glam::IVec3;
 use hashbrown::{HashMap, HashSet};
 
-pub use halo::{Halo, HALO_DIM};
+pub(crate) use halo::{Halo, HALO_DIM};
 
 /// Nodes along a block edge.
 pub const BLOCK_DIM: i32 = 8;
 /// Nodes per block, in OpenVDB's leaf order: offset = x << 6 | y << 3 | z.
-pub const BLOCK_NODES: usize = 512;
+pub(crate) const BLOCK_NODES: usize = 512;
 
 /// Offset of local node (x, y, z), each in 0..8, inside a block.
 #[inline]
-pub fn node_offset(x: i32, y: i32, z: i32) -> usize {
+pub(crate) fn node_offset(x: i32, y: i32, z: i32) -> usize {
     ((x << 6) | (y << 3) | z) as usize
 }
 
 /// Local coordinates of a node offset.
 #[inline]
-pub fn offset_coords(offset: usize) -> IVec3 {
+pub(crate) fn offset_coords(offset: usize) -> IVec3 {
     let o = offset as i32;
     IVec3::new(o >> 6, (o >> 3) & 7, o & 7)
 }
 
 /// The block holding global node `ijk`.
 #[inline]
-pub fn block_of(ijk: IVec3) -> IVec3 {
+pub(crate) fn block_of(ijk: IVec3) -> IVec3 {
     ijk >> 3
 }
 
@@ -93,11 +93,11 @@ pub enum Precision {
 
 /// Typed index of a block in the arena.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub struct BlockId(pub u32);
+pub(crate) struct BlockId(pub u32);
 
 /// 8³ nodes and the mask of those in the active tube.
 #[derive(Clone)]
-pub struct Block<P> {
+pub(crate) struct Block<P> {
     /// Block coordinate: global node = 8 · coord + local.
     pub coord: IVec3,
     pub values: [P; BLOCK_NODES],
@@ -114,26 +114,16 @@ impl<P: Potential> Block<P> {
     }
 
     #[inline]
-    pub fn is_active(&self, offset: usize) -> bool {
+    pub(crate) fn is_active(&self, offset: usize) -> bool {
         self.active[offset >> 6] >> (offset & 63) & 1 == 1
     }
 
-    #[inline]
-    pub fn set_active(&mut self, offset: usize, on: bool) {
-        let bit = 1u64 << (offset & 63);
-        if on {
-            self.active[offset >> 6] |= bit;
-        } else {
-            self.active[offset >> 6] &= !bit;
-        }
-    }
-
-    pub fn active_count(&self) -> usize {
+    pub(crate) fn active_count(&self) -> usize {
         self.active.iter().map(|w| w.count_ones() as usize).sum()
     }
 
     /// Offsets of active nodes, in order.
-    pub fn active_offsets(&self) -> impl Iterator<Item = usize> + '_ {
+    pub(crate) fn active_offsets(&self) -> impl Iterator<Item = usize> + '_ {
         self.active.iter().enumerate().flat_map(|(w, &word)| {
             let mut bits = word;
             std::iter::from_fn(move || {
@@ -172,11 +162,11 @@ impl<P: Potential> SparseGrid<P> {
         }
     }
 
-    pub fn blocks(&self) -> &[Block<P>] {
+    pub(crate) fn blocks(&self) -> &[Block<P>] {
         &self.blocks
     }
 
-    pub fn blocks_mut(&mut self) -> &mut [Block<P>] {
+    pub(crate) fn blocks_mut(&mut self) -> &mut [Block<P>] {
         &mut self.blocks
     }
 
@@ -184,20 +174,20 @@ impl<P: Potential> SparseGrid<P> {
         self.blocks.len()
     }
 
-    pub fn inside_tiles(&self) -> &HashSet<IVec3> {
+    pub(crate) fn inside_tiles(&self) -> &HashSet<IVec3> {
         &self.inside
     }
 
-    pub fn find(&self, coord: IVec3) -> Option<BlockId> {
+    pub(crate) fn find(&self, coord: IVec3) -> Option<BlockId> {
         self.index.get(&coord).copied()
     }
 
-    pub fn block(&self, id: BlockId) -> &Block<P> {
+    pub(crate) fn block(&self, id: BlockId) -> &Block<P> {
         &self.blocks[id.0 as usize]
     }
 
     /// Value of an unstored block (its tile side).
-    pub fn tile_value(&self, coord: IVec3) -> P {
+    pub(crate) fn tile_value(&self, coord: IVec3) -> P {
         if self.inside.contains(&coord) {
             P::INSIDE
         } else {
@@ -218,7 +208,7 @@ impl<P: Potential> SparseGrid<P> {
     }
 
     /// The block at `coord`, created from its tile (every node at the tile's side) if absent.
-    pub fn touch(&mut self, coord: IVec3) -> BlockId {
+    pub(crate) fn touch(&mut self, coord: IVec3) -> BlockId {
         if let Some(id) = self.find(coord) {
             return id;
         }
@@ -236,7 +226,7 @@ impl<P: Potential> SparseGrid<P> {
     }
 
     /// Marks an unstored block as wholly inside (`true`) or outside.
-    pub fn set_tile(&mut self, coord: IVec3, inside: bool) {
+    pub(crate) fn set_tile(&mut self, coord: IVec3, inside: bool) {
         debug_assert!(self.find(coord).is_none());
         if inside {
             self.inside.insert(coord);
@@ -246,7 +236,7 @@ impl<P: Potential> SparseGrid<P> {
     }
 
     /// Drops the blocks `retire` says to, turning each into a tile of its side.
-    pub fn retire_blocks(&mut self, retire: impl Fn(&Block<P>) -> bool) {
+    pub(crate) fn retire_blocks(&mut self, retire: impl Fn(&Block<P>) -> bool) {
         let mut i = 0;
         while i < self.blocks.len() {
             if retire(&self.blocks[i]) {
@@ -271,10 +261,17 @@ impl<P: Potential> SparseGrid<P> {
     }
 
     /// Releases all spare capacity (after building or restoring a grid).
-    pub fn shrink_to_fit(&mut self) {
+    pub(crate) fn shrink_to_fit(&mut self) {
         self.blocks.shrink_to_fit();
         self.index.shrink_to_fit();
         self.inside.shrink_to_fit();
+    }
+
+    /// Every stored node's value, block by block.
+    pub fn stored_values(&self) -> impl Iterator<Item = f32> + '_ {
+        self.blocks
+            .iter()
+            .flat_map(|b| b.values.iter().map(|v| v.to_f32()))
     }
 
     pub fn active_node_count(&self) -> usize {
@@ -292,7 +289,7 @@ impl<P: Potential> SparseGrid<P> {
     }
 
     /// The 27 blocks around `coord` (itself at index 13), for halo gathering.
-    pub fn neighbourhood(&self, coord: IVec3) -> [Result<BlockId, P>; 27] {
+    pub(crate) fn neighbourhood(&self, coord: IVec3) -> [Result<BlockId, P>; 27] {
         std::array::from_fn(|n| {
             let d = IVec3::new(n as i32 / 9 - 1, (n as i32 / 3) % 3 - 1, n as i32 % 3 - 1);
             let c = coord + d;

@@ -7,7 +7,7 @@
 //! Layers, arrows pointing down only:
 //!
 //! - **core**, pure Rust, built and tested without OpenVDB (`--no-default-features`):
-//!   [`grid`] (§4.1–4.2), [`stencil`] (§4.4), [`skin`] (§4.3, §4.5, §4.7–4.8, §5),
+//!   [`grid`] (§4.1–4.2), `stencil` (§4.4), [`skin`] (§4.3, §4.5, §4.7–4.8, §5),
 //!   [`polygonize`] (§3.2, §4.6), [`mesh`], [`target`] (§3.4, and the particle density of
 //!   §6.1), [`volume`] (a VDB grid's plain data), [`particles`], [`render`];
 //! - **I/O**, with the default feature `vdb`: [`vdb`] (OpenVDB through the C++ bridge),
@@ -45,7 +45,7 @@ pub mod polygonize;
 pub mod render;
 pub mod sequence;
 pub mod skin;
-pub mod stencil;
+mod stencil;
 pub mod target;
 #[cfg(feature = "vdb")]
 pub mod validate;

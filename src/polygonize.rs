@@ -2,7 +2,8 @@
 //! per crossed edge, its normals from the interpolated gradient, and the crossing points
 //! handed to the next step (§4.3.2).
 //!
-//! The cases and their diagram are in [`cases`]; vertices are found by edge in [`edges`].
+//! The cases and their diagram are in `polygonize/cases.rs`; vertices are found by edge in
+//! `polygonize/edges.rs`.
 
 mod cases;
 mod edges;
@@ -14,7 +15,8 @@ use crate::grid::{offset_coords, Block, BlockId, Halo, Potential, SparseGrid, BL
 use crate::mesh::Mesh;
 use crate::volume::GridData;
 
-pub use edges::{Crossings, LocalCrossings};
+pub use edges::Crossings;
+pub(crate) use edges::LocalCrossings;
 
 use cases::{corner_offset, edge_axis, EDGE_CORNERS};
 use edges::EdgeTable;

@@ -2,14 +2,14 @@
 //! target in sub-steps (§4.7, §4.8), polygonized after every step.
 //!
 //! Paper section → module: §3.2/§4.6 [`crate::polygonize`], §3.4/§4.3/§5 [`speed`],
-//! §4.1/§4.5 [`band`], §4.2 [`crate::grid`], §4.4 [`crate::stencil`], §4.7 [`Skin::step`],
-//! §4.8 [`timestep`].
+//! §4.1/§4.5 `skin/band.rs`, §4.2 [`crate::grid`], §4.4 `stencil.rs`, §4.7 [`Skin::step`],
+//! §4.8 `skin/timestep.rs`.
 
 mod any;
-pub mod band;
+mod band;
 mod export;
 pub mod speed;
-pub mod timestep;
+mod timestep;
 
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;

@@ -5,14 +5,14 @@ use glam::Vec3;
 
 /// The 3×3×3 neighbourhood of a node: what every stencil here reads.
 #[derive(Clone, Copy)]
-pub struct Stencil {
+pub(crate) struct Stencil {
     /// v[dx + 1][dy + 1][dz + 1]
     pub v: [[[f32; 3]; 3]; 3],
 }
 
 impl Stencil {
     #[inline]
-    pub fn from_halo(halo: &Halo, x: i32, y: i32, z: i32) -> Self {
+    pub(crate) fn from_halo(halo: &Halo, x: i32, y: i32, z: i32) -> Self {
         let mut v = [[[0.0; 3]; 3]; 3];
         for (i, plane) in v.iter_mut().enumerate() {
             for (j, row) in plane.iter_mut().enumerate() {
@@ -30,13 +30,13 @@ impl Stencil {
     }
 
     #[inline]
-    pub fn center(&self) -> f32 {
+    pub(crate) fn center(&self) -> f32 {
         self.v[1][1][1]
     }
 
     /// Central-difference gradient.
     #[inline]
-    pub fn gradient(&self) -> Vec3 {
+    pub(crate) fn gradient(&self) -> Vec3 {
         Vec3::new(
             0.5 * (self.at(1, 0, 0) - self.at(-1, 0, 0)),
             0.5 * (self.at(0, 1, 0) - self.at(0, -1, 0)),
@@ -48,7 +48,7 @@ impl Stencil {
     /// (φ decreasing where it grows). Unlike central differences, it sees an isolated
     /// node, so a vanishing bubble keeps shrinking instead of freezing.
     #[inline]
-    pub fn upwind_gradient_norm(&self, outward: bool) -> f32 {
+    pub(crate) fn upwind_gradient_norm(&self, outward: bool) -> f32 {
         let c = self.center();
         let mut sum = 0.0;
         for axis in 0..3 {
@@ -73,7 +73,7 @@ impl Stencil {
     ///
     /// Eq. 4 with the paper's slip corrected: the y² term multiplies (φxx + φzz).
     #[inline]
-    pub fn mean_curvature(&self) -> Option<f32> {
+    pub(crate) fn mean_curvature(&self) -> Option<f32> {
         let c = self.center();
         let g = self.gradient();
         let (fx, fy, fz) = (g.x, g.y, g.z);

@@ -1,4 +1,4 @@
-//! Reading and writing OpenVDB files through the C++ bridge ([`ffi`]).
+//! Reading and writing OpenVDB files through the C++ bridge (`vdb/ffi.rs`).
 //!
 //! A [`Grid`] is a handle on an OpenVDB `FloatGrid` living on the C++ side; [`crate::volume::GridData`] is
 //! its Rust copy, leaf by leaf, in OpenVDB's own layout so that the transfer is a copy of
@@ -19,7 +19,7 @@
 //! ```
 
 mod ffi;
-pub mod layout;
+mod layout;
 
 use std::path::{Path, PathBuf};
 

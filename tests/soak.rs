@@ -94,11 +94,7 @@ fn ten_thousand_steps_against_changing_targets() {
         let stats = skin.advance(&target_at(time), 1.0 / 24.0);
         substeps += u64::from(stats.substeps);
 
-        let finite = skin
-            .grid()
-            .blocks()
-            .iter()
-            .all(|b| b.values.iter().all(|v| v.is_finite()));
+        let finite = skin.grid().stored_values().all(f32::is_finite);
         assert!(finite, "frame {frame}: a NaN or infinite potential");
         assert!(
             stats.area.is_finite() && stats.volume.is_finite(),

@@ -5,10 +5,10 @@ use super::{node_offset, BlockId, Potential, SparseGrid, BLOCK_DIM};
 use glam::IVec3;
 
 /// Side of the padded cube: 8 nodes plus one on each side.
-pub const HALO_DIM: usize = 10;
+pub(crate) const HALO_DIM: usize = 10;
 
 /// Values of a block and its one-node border, as f32, x-major like the block.
-pub struct Halo {
+pub(crate) struct Halo {
     pub values: [f32; HALO_DIM * HALO_DIM * HALO_DIM],
 }
 
@@ -34,13 +34,17 @@ impl Halo {
     }
 
     /// Fills from the block at `coord` and its 26 neighbours (tiles give their side).
-    pub fn gather<P: Potential>(&mut self, grid: &SparseGrid<P>, coord: IVec3) {
+    pub(crate) fn gather<P: Potential>(&mut self, grid: &SparseGrid<P>, coord: IVec3) {
         self.fill(grid, &grid.neighbourhood(coord));
     }
 
     /// Fills from a block's neighbourhood, as [`SparseGrid::neighbourhood`] gives it, one
     /// row of ten along z at a time: its eight middle values are a fixed-size copy.
-    pub fn fill<P: Potential>(&mut self, grid: &SparseGrid<P>, around: &[Result<BlockId, P>; 27]) {
+    pub(crate) fn fill<P: Potential>(
+        &mut self,
+        grid: &SparseGrid<P>,
+        around: &[Result<BlockId, P>; 27],
+    ) {
         let node = |source: &Result<BlockId, P>, offset: usize| match source {
             Ok(id) => grid.block(*id).values[offset].to_f32(),
             Err(tile) => tile.to_f32(),

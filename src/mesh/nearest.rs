@@ -80,7 +80,7 @@ impl TriangleIndex {
 
     /// Distance from `p` to the mesh when it is at most `radius` (only the cells that
     /// ball touches are searched); otherwise some larger value, or infinity.
-    pub fn distance_within(&self, p: Vec3, radius: f32) -> f32 {
+    pub(crate) fn distance_within(&self, p: Vec3, radius: f32) -> f32 {
         let r = Vec3::splat(radius);
         self.nearest_in(self.key(p - r) - self.extent, self.key(p + r), p)
     }

@@ -13,7 +13,7 @@ const EDGE_WORDS: usize = 3 * BLOCK_NODES / 64;
 /// The mesh vertices on the edges owned by one block's nodes, numbered in bit order from
 /// `first`.
 #[derive(Clone, Default)]
-pub struct EdgeTable {
+pub(crate) struct EdgeTable {
     first: u32,
     crossed: [u64; EDGE_WORDS],
     /// Crossed edges in the words before each word.
@@ -48,7 +48,7 @@ impl EdgeTable {
     }
 }
 
-/// The crossing points of the last polygonization (§4.3.2), one [`EdgeTable`] per block of
+/// The crossing points of the last polygonization (§4.3.2), one `EdgeTable` per block of
 /// the grid it ran on, in that grid's block order: valid until the grid next changes.
 #[derive(Default)]
 pub struct Crossings {
@@ -59,12 +59,12 @@ pub struct Crossings {
 }
 
 impl Crossings {
-    pub fn points(&self) -> &[glam::Vec3] {
+    pub(crate) fn points(&self) -> &[glam::Vec3] {
         &self.points
     }
 
     /// The tables of the 27 blocks around one block (from `SparseGrid::neighbourhood`).
-    pub fn around<P>(&self, neighbourhood: &[Result<BlockId, P>; 27]) -> LocalCrossings<'_> {
+    pub(crate) fn around<P>(&self, neighbourhood: &[Result<BlockId, P>; 27]) -> LocalCrossings<'_> {
         LocalCrossings {
             tables: std::array::from_fn(|n| {
                 neighbourhood[n]
@@ -77,14 +77,14 @@ impl Crossings {
 }
 
 /// Crossing lookups around one block, by local node coordinates in -1..=8.
-pub struct LocalCrossings<'a> {
+pub(crate) struct LocalCrossings<'a> {
     tables: [Option<&'a EdgeTable>; 27],
 }
 
 impl LocalCrossings<'_> {
     /// The mesh vertex on the edge from local node `l` toward +`axis`, if it is crossed.
     #[inline]
-    pub fn vertex(&self, l: IVec3, axis: usize) -> Option<u32> {
+    pub(crate) fn vertex(&self, l: IVec3, axis: usize) -> Option<u32> {
         let step = (l >> IVec3::splat(3)) + IVec3::ONE;
         let table = self.tables[(step.x * 9 + step.y * 3 + step.z) as usize]?;
         let local = l & IVec3::splat(BLOCK_DIM - 1);

@@ -25,7 +25,7 @@ fn next_to_skin(halo: &Halo, l: IVec3, f: f32) -> bool {
 /// One Jacobi sweep of the Godunov upwind scheme for |∇f| = 1/w, over active nodes not
 /// next to the skin (those define it and keep their values). Keeps the potential a
 /// scaled signed distance, which the paper leaves to drift (§4.1); `scratch` is reused.
-pub fn renormalize<P: Potential>(
+pub(crate) fn renormalize<P: Potential>(
     grid: &mut SparseGrid<P>,
     band_width: f32,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
@@ -49,7 +49,7 @@ pub fn renormalize<P: Potential>(
 /// mesh, at most `bound`, its nearest crossing) with its sign. The nodes farther out
 /// already hold the renormalised distance from these. The skin moves by second-order
 /// terms only: on an edge crossed at t, distances t·c and (1−t)·c keep the crossing at t.
-pub fn redistance<P: Potential>(
+pub(crate) fn redistance<P: Potential>(
     grid: &mut SparseGrid<P>,
     band_width: f32,
     distance: impl Fn(IVec3, f32) -> f32 + Sync,
@@ -126,7 +126,7 @@ fn godunov(mut a: [f32; 3], h: f32) -> f32 {
 }
 
 /// Sets every node of the blocks to `value(global node)`, clamped; used to start a skin.
-pub fn fill<P: Potential>(grid: &mut SparseGrid<P>, value: impl Fn(IVec3) -> f32 + Sync) {
+pub(crate) fn fill<P: Potential>(grid: &mut SparseGrid<P>, value: impl Fn(IVec3) -> f32 + Sync) {
     grid.blocks_mut().par_iter_mut().for_each(|block| {
         let base = block.coord * BLOCK_DIM;
         for x in 0..BLOCK_DIM {

@@ -68,13 +68,13 @@ impl Default for SpeedParams {
 
 /// Terms of V that are the same at every node in a step.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct GlobalTerms {
+pub(crate) struct GlobalTerms {
     /// γ_A (A0 − A)/A0 + γ_V (V0 − Vol)/V0
     pub preservation: f32,
 }
 
 impl GlobalTerms {
-    pub fn new(params: &SpeedParams, area: (f64, f64), volume: (f64, f64)) -> Self {
+    pub(crate) fn new(params: &SpeedParams, area: (f64, f64), volume: (f64, f64)) -> Self {
         let relative = |(now, rest): (f64, f64)| {
             if rest.abs() > 0.0 {
                 ((rest - now) / rest) as f32
@@ -89,7 +89,7 @@ impl GlobalTerms {
 }
 
 /// What the speed of one node needs to know about where it is.
-pub struct NodeContext<'a> {
+pub(crate) struct NodeContext<'a> {
     /// Global index of the node.
     pub ijk: IVec3,
     /// Its coordinates inside its block (0..8), for crossing lookups.
@@ -104,7 +104,7 @@ pub struct NodeContext<'a> {
 }
 
 /// The target's signed distance at the node's closest skin point X̃ (§4.3).
-pub fn attraction_distance(
+pub(crate) fn attraction_distance(
     params: &SpeedParams,
     stencil: &Stencil,
     grad: Vec3,
@@ -177,7 +177,7 @@ pub const MAX_CURVATURE_INDEX: f32 = 2.0;
 /// its part without tension, which alone sets the CFL bound: tension is parabolic, held
 /// by its own bound Δx²/(6β) (§4.8).
 #[inline]
-pub fn normal_speed(
+pub(crate) fn normal_speed(
     params: &SpeedParams,
     global: &GlobalTerms,
     target_distance: f32,

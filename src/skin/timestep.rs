@@ -6,7 +6,7 @@
 /// v_max → 0 while the attraction still relaxes the distance at rate α (and the
 /// preservation terms the area and volume at their own rates): explicit Euler overshoots
 /// unless dt < 1/rate, so `relaxation` is the largest of those rates.
-pub fn stable_dt(dx: f32, v_max: f32, beta: f32, relaxation: f32, safety: f32) -> f32 {
+pub(crate) fn stable_dt(dx: f32, v_max: f32, beta: f32, relaxation: f32, safety: f32) -> f32 {
     let bound = |rate: f32, limit: f32| if rate > 0.0 { limit } else { f32::INFINITY };
     let hyperbolic = bound(v_max, dx / v_max);
     let parabolic = bound(beta, dx * dx / (6.0 * beta));
@@ -16,7 +16,7 @@ pub fn stable_dt(dx: f32, v_max: f32, beta: f32, relaxation: f32, safety: f32) -
 
 /// The next sub-step toward `remaining`: a stable step, or exactly what is left when that
 /// is close, so sub-steps land on the requested time without a sliver at the end.
-pub fn next_substep(remaining: f64, stable: f32) -> f64 {
+pub(crate) fn next_substep(remaining: f64, stable: f32) -> f64 {
     let stable = f64::from(stable);
     if stable >= remaining {
         remaining
