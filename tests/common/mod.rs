@@ -19,6 +19,46 @@ pub fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
+/// `skin` on `target` at α = 24 writing VDBs to `out`, quietly, plus `extra`.
+pub fn skin_args<'a>(target: &'a str, out: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        "skin", "--target", target, "--alpha", "24", "--out", out, "-q",
+    ];
+    args.extend_from_slice(extra);
+    args
+}
+
+/// Writes one grid to a VDB file.
+#[cfg(feature = "vdb")]
+pub fn write_grid(path: &Path, data: &activeskin::volume::GridData) {
+    let grid = activeskin::vdb::Grid::from_data(data).unwrap();
+    let meta = activeskin::vdb::FileMetadata {
+        creator: "test".into(),
+        has_frame: false,
+        frame: 0,
+    };
+    activeskin::vdb::write_grids(path, &[(&grid, Default::default())], &meta).unwrap();
+}
+
+/// A file under the repository's `data/`.
+pub fn data(path: &str) -> String {
+    format!("{}/data/{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+pub fn assert_ok(out: &Output) {
+    assert!(out.status.success(), "{}", stderr(out));
+}
+
+/// Exit 1 (bad data), one line naming `file`, no panic.
+pub fn assert_one_line_error(out: &Output, file: &str) {
+    assert_fails(out, 1, file, "bad data");
+}
+
+/// Exit 2 (bad usage), one line naming `what`, no panic.
+pub fn assert_usage_error(out: &Output, what: &str) {
+    assert_fails(out, 2, what, "bad usage");
+}
+
 /// Exit `code` (1 bad data, 2 bad usage), one line naming `names`, no panic text.
 pub fn assert_fails(out: &Output, code: i32, names: &str, what: &str) {
     let err = stderr(out);
