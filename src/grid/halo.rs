@@ -90,3 +90,53 @@ fn split(h: i32) -> (i32, i32) {
         (0, h)
     }
 }
+
+/// Side of [`WideHalo`]: 8 nodes plus two on each side.
+pub const WIDE_DIM: usize = 12;
+
+/// A block's values with a two-node border, for stencils four nodes wide (the advection's
+/// cubic interpolation). Gathered node by node: it is read once per pass.
+pub struct WideHalo {
+    pub values: [f32; WIDE_DIM * WIDE_DIM * WIDE_DIM],
+}
+
+impl Default for WideHalo {
+    fn default() -> Self {
+        WideHalo {
+            values: [1.0; WIDE_DIM * WIDE_DIM * WIDE_DIM],
+        }
+    }
+}
+
+impl WideHalo {
+    #[inline]
+    fn index(x: i32, y: i32, z: i32) -> usize {
+        ((x + 2) as usize * WIDE_DIM + (y + 2) as usize) * WIDE_DIM + (z + 2) as usize
+    }
+
+    /// The value at local node (x, y, z), each in -2..=9.
+    #[inline]
+    pub fn at(&self, x: i32, y: i32, z: i32) -> f32 {
+        self.values[Self::index(x, y, z)]
+    }
+
+    /// Fills from the block at `coord` and its 26 neighbours (tiles give their side).
+    pub fn gather<P: Potential>(&mut self, grid: &SparseGrid<P>, coord: IVec3) {
+        let around = grid.neighbourhood(coord);
+        let side = |h: i32| (h.div_euclid(BLOCK_DIM) + 1, h.rem_euclid(BLOCK_DIM));
+        for hx in -2..BLOCK_DIM + 2 {
+            let (sx, lx) = side(hx);
+            for hy in -2..BLOCK_DIM + 2 {
+                let (sy, ly) = side(hy);
+                for hz in -2..BLOCK_DIM + 2 {
+                    let (sz, lz) = side(hz);
+                    let value = match &around[(sx * 9 + sy * 3 + sz) as usize] {
+                        Ok(id) => grid.block(*id).values[node_offset(lx, ly, lz)].to_f32(),
+                        Err(tile) => tile.to_f32(),
+                    };
+                    self.values[Self::index(hx, hy, hz)] = value;
+                }
+            }
+        }
+    }
+}

@@ -1,6 +1,7 @@
 //! A skin whose storage (f32 or 16-bit fixed point) is chosen at run time.
 
 use super::{Skin, SkinError, SkinParams, SpeedParams, StepStats};
+use crate::flow::Flow;
 use crate::grid::{Fixed16, Precision};
 use crate::mesh::Mesh;
 use crate::target::Target;
@@ -30,6 +31,14 @@ impl AnySkin {
     }
     pub fn advance(&mut self, target: &dyn Target, duration: f64) -> StepStats {
         each!(self, s => s.advance(target, duration))
+    }
+    pub fn advance_in_flow(
+        &mut self,
+        target: &dyn Target,
+        flow: Option<&dyn Flow>,
+        duration: f64,
+    ) -> StepStats {
+        each!(self, s => s.advance_in_flow(target, flow, duration))
     }
     pub fn stats(&self) -> StepStats {
         each!(self, s => s.stats())

@@ -23,16 +23,18 @@ fn next_to_skin(halo: &Halo, l: IVec3, f: f32) -> bool {
 }
 
 /// One Jacobi sweep of the Godunov upwind scheme for |∇f| = 1/w, over active nodes not
-/// next to the skin (those define it and keep their values). Keeps the potential a
-/// scaled signed distance, which the paper leaves to drift (§4.1); `scratch` is reused.
+/// next to the skin (those define it and keep their values) and not within `keep` of it
+/// (|f| < keep). Keeps the potential a scaled signed distance, which the paper leaves to
+/// drift (§4.1); `scratch` is reused.
 pub(crate) fn renormalize<P: Potential>(
     grid: &mut SparseGrid<P>,
     band_width: f32,
+    keep: f32,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
 ) {
     let h = 1.0 / band_width;
     sweep(grid, scratch, |halo, l, _, f| {
-        if next_to_skin(halo, l, f) {
+        if f.abs() < keep || next_to_skin(halo, l, f) {
             return f;
         }
         let s = if f < 0.0 { -1.0 } else { 1.0 };

@@ -1,0 +1,52 @@
+//! The material's velocity (paper §7): the skin is carried by it, and the attraction only
+//! corrects what the motion does not explain. Analytic motions for tests and demos, and
+//! velocity grids read from simulation caches.
+
+use glam::Vec3;
+
+use crate::target::{Aabb, Target};
+
+/// A velocity field, world units per second.
+pub trait Flow: Sync {
+    fn velocity(&self, p: Vec3) -> Vec3;
+}
+
+impl<F: Flow + ?Sized> Flow for &F {
+    fn velocity(&self, p: Vec3) -> Vec3 {
+        (**self).velocity(p)
+    }
+}
+
+/// A rigid motion: translation at `linear`, rotation at `angular` (radians per second,
+/// about its axis, right-handed) around `center`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rigid {
+    pub center: Vec3,
+    pub linear: Vec3,
+    pub angular: Vec3,
+}
+
+impl Flow for Rigid {
+    fn velocity(&self, p: Vec3) -> Vec3 {
+        self.linear + self.angular.cross(p - self.center)
+    }
+}
+
+/// A target seen earlier than it is given: the surface `target` will have after `ahead`
+/// seconds, carried back along `flow` — at p, the target's distance where the material at
+/// p will be then (first order in `ahead`). The skin is attracted to this at a sub-step's
+/// own time, so α acts on the shape error and not on the motion.
+pub struct Backtracked<'a> {
+    pub target: &'a dyn Target,
+    pub flow: &'a dyn Flow,
+    pub ahead: f32,
+}
+
+impl Target for Backtracked<'_> {
+    fn distance(&self, p: Vec3) -> f32 {
+        self.target.distance(p + self.flow.velocity(p) * self.ahead)
+    }
+    fn bounds(&self) -> Aabb {
+        self.target.bounds()
+    }
+}
