@@ -16,7 +16,12 @@ const REQUIRED: &[(&str, &str)] = &[
 ];
 
 #[cfg(feature = "vdb")]
-const BRIDGE_SOURCES: &[&str] = &["cpp/vdb_bridge.cc", "cpp/vdb_tools.cc", "cpp/vdb_points.cc"];
+const BRIDGE_SOURCES: &[&str] = &[
+    "cpp/vdb_bridge.cc",
+    "cpp/vdb_tools.cc",
+    "cpp/vdb_points.cc",
+    "cpp/vdb_vectors.cc",
+];
 
 #[cfg(feature = "vdb")]
 /// Folders named by `OPENVDB_INCLUDE_DIR` (a PATH-style list), searched before the system's.

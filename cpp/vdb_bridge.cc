@@ -34,8 +34,6 @@ std::unique_ptr<FloatGrid> wrap(openvdb::FloatGrid::Ptr grid) {
 FloatGrid::FloatGrid(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 FloatGrid::~FloatGrid() = default;
 
-namespace {
-
 GridClass to_class(openvdb::GridClass c) {
   switch (c) {
     case openvdb::GRID_LEVEL_SET: return GridClass::LevelSet;
@@ -70,6 +68,8 @@ openvdb::math::Transform::Ptr make_transform(const openvdb::Mat4d &m) {
   xf->postTranslate(openvdb::Vec3d(m(3, 0), m(3, 1), m(3, 2)));
   return xf;
 }
+
+namespace {
 
 bool same_bits(float a, float b) { return std::memcmp(&a, &b, sizeof(float)) == 0; }
 
@@ -287,10 +287,6 @@ std::unique_ptr<FloatGrid> make_level_set_sphere(float radius, std::array<float,
 }
 
 // ---- writing ----
-
-struct GridWriter::Impl {
-  openvdb::GridPtrVec grids;
-};
 
 GridWriter::GridWriter() : impl_(std::make_unique<Impl>()) {}
 GridWriter::~GridWriter() = default;

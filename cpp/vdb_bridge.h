@@ -27,6 +27,7 @@ static void trycatch(Try &&func, Fail &&fail) noexcept try {
 namespace activeskin {
 namespace bridge {
 
+enum class GridClass : ::std::uint8_t;
 struct GridSummary;
 struct GridHeader;
 struct Tile;
@@ -35,6 +36,7 @@ struct LevelSetMeasures;
 struct MorphTiming;
 struct FileMetadata;
 struct PointBuffers;
+struct VectorBuffers;
 
 class FloatGrid {
  public:
@@ -62,6 +64,9 @@ class GridWriter {
   ~GridWriter();
 
   void add(const FloatGrid &grid, bool half_float);
+  void add_vectors(rust::Str name, bool staggered, double voxel_size,
+                   rust::Slice<const int32_t> coords, rust::Slice<const float> values,
+                   bool half_float);
   void write(rust::Str path, const FileMetadata &metadata) const;
 
  private:
@@ -93,6 +98,7 @@ std::unique_ptr<FloatGrid> mesh_to_level_set(rust::Slice<const float> points,
                                              rust::Slice<const uint32_t> triangles,
                                              double voxel_size, float half_width);
 rust::String check_level_set(const FloatGrid &grid);
+VectorBuffers read_vector_grid(rust::Str path, rust::Str name);
 
 }  // namespace bridge
 }  // namespace activeskin

@@ -12,6 +12,16 @@ struct FloatGrid::Impl {
   openvdb::FloatGrid::Ptr grid;
 };
 
+struct GridWriter::Impl {
+  openvdb::GridPtrVec grids;
+};
+
+GridClass to_class(openvdb::GridClass c);
+openvdb::GridClass from_class(GridClass c);
+bool is_uniform_linear(const openvdb::math::Transform &xf);
+// A uniform scale plus translation built as OpenVDB builds its own (bit-exact voxel size).
+openvdb::math::Transform::Ptr make_transform(const openvdb::Mat4d &m);
+
 // openvdb::initialize() exactly once, from whichever entry point runs first.
 void ensure_initialized();
 

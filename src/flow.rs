@@ -2,7 +2,11 @@
 //! corrects what the motion does not explain. Analytic motions for tests and demos, and
 //! velocity grids read from simulation caches.
 
+mod grid;
+
 use glam::Vec3;
+
+pub use grid::{GridFlow, EXTENSION_LAYERS};
 
 use crate::target::{Aabb, Target};
 
@@ -48,5 +52,15 @@ impl Target for Backtracked<'_> {
     }
     fn bounds(&self) -> Aabb {
         self.target.bounds()
+    }
+}
+
+/// The mean of two flows: the velocity over a frame interval from the velocities of the
+/// frames at both ends.
+pub struct Mean<'a>(pub &'a dyn Flow, pub &'a dyn Flow);
+
+impl Flow for Mean<'_> {
+    fn velocity(&self, p: Vec3) -> Vec3 {
+        0.5 * (self.0.velocity(p) + self.1.velocity(p))
     }
 }

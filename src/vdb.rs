@@ -30,7 +30,9 @@ pub use ffi::bridge::{
     FileMetadata, GridSummary, LevelSetMeasures, MeshBuffers, MorphTiming, PointBuffers,
 };
 
-use crate::volume::{GridClass, GridData, Tile, Transform, LEAF_VOXELS, MASK_WORDS};
+use crate::volume::{
+    GridClass, GridData, Tile, Transform, VectorGrid, VectorTile, LEAF_VOXELS, MASK_WORDS,
+};
 
 /// Why reading or writing a VDB file failed. Every message fits on one line and names
 /// the file.
@@ -278,6 +280,55 @@ pub fn frame_metadata(frame: i64) -> FileMetadata {
     }
 }
 
+/// A vector grid to write (fixtures, samples): `values[i]` at voxel `coords[i]`.
+pub struct VectorWrite<'a> {
+    pub name: &'a str,
+    pub staggered: bool,
+    pub voxel_size: f64,
+    pub coords: &'a [[i32; 3]],
+    pub values: &'a [[f32; 3]],
+    pub half_float: bool,
+}
+
+/// The vector grid `name` of a file, or its first vec3s/vec3d grid.
+pub fn read_vector_grid(path: &Path, name: Option<&str>) -> Result<VectorGrid, VdbError> {
+    check_vdb_file(path)?;
+    let b = ffi::bridge::read_vector_grid(&path.to_string_lossy(), name.unwrap_or(""))
+        .map_err(|e| openvdb_read_error(path, &e))?;
+    let triples =
+        |v: &[f32]| -> Vec<[f32; 3]> { v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect() };
+    let tile_origins: Vec<[i32; 3]> = b
+        .tile_origins
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    let tiles = tile_origins
+        .iter()
+        .zip(&b.tile_dims)
+        .zip(triples(&b.tile_values))
+        .map(|((&origin, &dim), value)| VectorTile { origin, dim, value })
+        .collect();
+    Ok(VectorGrid {
+        name: b.name,
+        staggered: b.staggered,
+        transform: Transform { matrix: b.matrix },
+        uniform_linear: b.uniform_linear,
+        background: b.background,
+        leaf_origins: b
+            .origins
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect(),
+        leaf_values: triples(&b.values),
+        leaf_masks: b
+            .masks
+            .chunks_exact(MASK_WORDS)
+            .map(|c| c.try_into().expect("eight mask words"))
+            .collect(),
+        tiles,
+    })
+}
+
 /// How one grid is stored by [`write_grids`].
 #[derive(Debug, Clone, Copy, Default)]
 pub struct WriteOptions {
@@ -292,11 +343,34 @@ pub fn write_grids(
     grids: &[(&Grid, WriteOptions)],
     metadata: &FileMetadata,
 ) -> Result<(), VdbError> {
+    write_grids_and_vectors(path, grids, &[], metadata)
+}
+
+/// [`write_grids`], with vector grids after the float grids.
+pub fn write_grids_and_vectors(
+    path: &Path,
+    grids: &[(&Grid, WriteOptions)],
+    vectors: &[VectorWrite],
+    metadata: &FileMetadata,
+) -> Result<(), VdbError> {
     let mut writer = ffi::bridge::new_grid_writer();
     for (grid, options) in grids {
         writer
             .pin_mut()
             .add(&grid.inner, options.half_float)
+            .map_err(|e| VdbError::file(path, e.what()))?;
+    }
+    for v in vectors {
+        writer
+            .pin_mut()
+            .add_vectors(
+                v.name,
+                v.staggered,
+                v.voxel_size,
+                v.coords.as_flattened(),
+                v.values.as_flattened(),
+                v.half_float,
+            )
             .map_err(|e| VdbError::file(path, e.what()))?;
     }
     crate::io::write_atomically(path, |tmp| {

@@ -138,3 +138,28 @@ pub fn narrow_band_background(half_width: f32, voxel_size: f32) -> f32 {
     }
     background
 }
+
+/// A vector grid (a velocity) copied from VDB, leaf by leaf: `LEAF_VOXELS` vectors per
+/// leaf. In a staggered (MAC) grid, component i of voxel v sits on v's lower face along i,
+/// at v − ½ e_i in index space; in a collocated grid all three sit at v.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VectorGrid {
+    pub name: String,
+    pub staggered: bool,
+    pub transform: Transform,
+    pub uniform_linear: bool,
+    pub background: [f32; 3],
+    pub leaf_origins: Vec<[i32; 3]>,
+    pub leaf_values: Vec<[f32; 3]>,
+    pub leaf_masks: Vec<[u64; MASK_WORDS]>,
+    /// Active constant regions above leaf level.
+    pub tiles: Vec<VectorTile>,
+}
+
+/// An active constant region of a vector grid: `dim`³ voxels from `origin`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VectorTile {
+    pub origin: [i32; 3],
+    pub dim: u32,
+    pub value: [f32; 3],
+}

@@ -100,6 +100,25 @@ pub(crate) mod bridge {
         has_radius: bool,
     }
 
+    /// A vector grid (vec3s or vec3d) copied out leaf by leaf: 512 voxels × 3 components
+    /// per leaf, x y z interleaved; active tiles above leaf level apart.
+    #[derive(Debug, Clone, Default)]
+    struct VectorBuffers {
+        name: String,
+        value_type: String,
+        /// OpenVDB class `staggered`: component i sits on the voxel's lower i face.
+        staggered: bool,
+        matrix: [f64; 16],
+        uniform_linear: bool,
+        background: [f32; 3],
+        origins: Vec<i32>,
+        values: Vec<f32>,
+        masks: Vec<u64>,
+        tile_origins: Vec<i32>,
+        tile_dims: Vec<u32>,
+        tile_values: Vec<f32>,
+    }
+
     /// File-level metadata written with the grids.
     #[derive(Debug, Clone)]
     struct FileMetadata {
@@ -150,6 +169,17 @@ pub(crate) mod bridge {
 
         fn new_grid_writer() -> UniquePtr<GridWriter>;
         fn add(self: Pin<&mut GridWriter>, grid: &FloatGrid, half_float: bool) -> Result<()>;
+        /// Adds a Vec3s grid named `name` with `values[i]` at voxel `coords[i]` (xyz
+        /// triples each), class `staggered` or unknown, voxels of `voxel_size` at zero.
+        fn add_vectors(
+            self: Pin<&mut GridWriter>,
+            name: &str,
+            staggered: bool,
+            voxel_size: f64,
+            coords: &[i32],
+            values: &[f32],
+            half_float: bool,
+        ) -> Result<()>;
         fn write(self: &GridWriter, path: &str, metadata: &FileMetadata) -> Result<()>;
 
         fn volume_to_mesh(grid: &FloatGrid, isovalue: f64, adaptivity: f64) -> Result<MeshBuffers>;
@@ -193,6 +223,8 @@ pub(crate) mod bridge {
         ) -> Result<()>;
         /// `Grid::memUsage()`, bytes.
         fn mem_usage(grid: &FloatGrid) -> u64;
+        /// The vector grid `name`, or the first vec3s/vec3d grid when `name` is empty.
+        fn read_vector_grid(path: &str, name: &str) -> Result<VectorBuffers>;
         /// `tools::checkLevelSet`: empty when the grid is a valid narrow-band level set.
         fn check_level_set(grid: &FloatGrid) -> Result<String>;
     }
