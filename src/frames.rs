@@ -13,9 +13,13 @@ mod outputs;
 
 use std::time::Instant;
 
-pub use inputs::{check_usable, read_target, InputFrames, ParticleInput};
+pub use inputs::{
+    check_usable, read_target, InputFrames, ParticleInput, VelocityInput, VelocitySource,
+    VELOCITY_NAMES,
+};
 pub use outputs::{OutputSpec, Outputs, Progress};
 
+use crate::flow::{Flow, Mean};
 use crate::mesh::MeshError;
 use crate::particles::ParticleError;
 use crate::render::RenderError;
@@ -47,15 +51,29 @@ pub enum FrameError {
     Usage(String),
 }
 
+/// What one frame brings: its target and, when known, the material's velocity then.
+pub struct FrameInput<'t> {
+    pub target: Box<dyn Target + 't>,
+    pub flow: Option<Box<dyn Flow + 't>>,
+}
+
+impl<'t> FrameInput<'t> {
+    /// A target alone, followed by attraction.
+    pub fn target(target: Box<dyn Target + 't>) -> Self {
+        FrameInput { target, flow: None }
+    }
+}
+
 /// Runs frames `first..=last`: frame `first` is the starting skin, each later frame
-/// advances 1/`fps` seconds toward `target_at(frame)`. With `outputs.resume()`, starts
-/// after the last skin VDB already written.
+/// advances 1/`fps` seconds toward `input_at(frame)`'s target, carried by the mean of the
+/// velocities of the frames at both ends of the interval where both are known. With
+/// `outputs.resume()`, starts after the last skin VDB already written.
 pub fn run<'t>(
     (first, last): (i64, i64),
     mut skin: AnySkin,
     fps: f64,
     outputs: &mut Outputs,
-    mut target_at: impl FnMut(i64) -> Result<Box<dyn Target + 't>, FrameError>,
+    mut input_at: impl FnMut(i64) -> Result<FrameInput<'t>, FrameError>,
 ) -> Result<(), FrameError> {
     let mut start = first;
     if outputs.resume() {
@@ -79,13 +97,36 @@ pub fn run<'t>(
             start = frame + 1;
         }
     }
+    // The velocity at the start of the interval being advanced: read again after a resume,
+    // as an uninterrupted run has it from the frame before.
+    let mut previous: Option<Option<Box<dyn Flow + 't>>> = None;
     for frame in start..=last {
         let started = Instant::now();
         let substeps = if frame == first {
             0
         } else {
-            let target = target_at(frame)?;
-            skin.advance(&*target, 1.0 / fps).substeps
+            let input = input_at(frame)?;
+            let before = match previous.take() {
+                Some(flow) => flow,
+                None if input.flow.is_some() => input_at(frame - 1)?.flow,
+                None => None,
+            };
+            let substeps = {
+                let mean;
+                let flow: Option<&dyn Flow> = match (&before, &input.flow) {
+                    (Some(a), Some(b)) => {
+                        mean = Mean(&**a, &**b);
+                        Some(&mean)
+                    }
+                    (None, Some(b)) => Some(&**b),
+                    (Some(a), None) => Some(&**a),
+                    (None, None) => None,
+                };
+                skin.advance_in_flow(&*input.target, flow, 1.0 / fps)
+                    .substeps
+            };
+            previous = Some(input.flow);
+            substeps
         };
         let level_set = skin.settle();
         let stats = crate::skin::StepStats {

@@ -8,7 +8,7 @@
 //!
 //! - **core**, pure Rust, built and tested without OpenVDB (`--no-default-features`):
 //!   [`grid`] (§4.1–4.2), `stencil` (§4.4), [`skin`] (§4.3, §4.5, §4.7–4.8, §5),
-//!   [`polygonize`] (§3.2, §4.6), [`mesh`], [`target`] (§3.4, and the particle density of
+//!   [`polygonize`] (§3.2, §4.6), [`mesh`], [`flow`] (§7), [`target`] (§3.4, and the particle density of
 //!   §6.1), [`volume`] (a VDB grid's plain data), [`particles`], [`render`];
 //! - **I/O**, with the default feature `vdb`: [`vdb`] (OpenVDB through the C++ bridge),
 //!   [`sequence`] (frame patterns), [`io`] (atomic writes), [`validate`];
@@ -23,7 +23,7 @@
 //! use glam::Vec3;
 //!
 //! let dx = 1.0 / 24.0;
-//! let params = SkinParams { dx, speed: SpeedParams::default_for(dx), ..SkinParams::default() };
+//! let params = SkinParams { dx, speed: SpeedParams::default_for(dx, 4.0), ..SkinParams::default() };
 //! let sphere = Sphere { center: Vec3::ZERO, radius: 0.5 };
 //! let torus = Torus { center: Vec3::ZERO, major: 0.5, minor: 0.2 };
 //! let mut skin: Skin<f32> = Skin::new(&sphere, params);

@@ -32,6 +32,21 @@ fn demo_writes_its_sequences() {
         assert_eq!(last["components"], components, "{name}");
         assert_eq!(last["euler_characteristic"], euler, "{name}");
     }
+    // The orbit is carried by its known motion: at the last frame the skin is on the
+    // sphere (centre 0.4 off the axis at half a turn a second, radius breathing).
+    let t = 47.0f32 / 24.0;
+    let angle = std::f32::consts::PI * t;
+    let centre = 0.4 * glam::Vec3::new(angle.cos(), angle.sin(), 0.0);
+    let radius = 0.3 + 0.05 * (std::f32::consts::TAU * t).sin();
+    let mesh = common::read_mesh(&dir.path().join("orbit/orbit.0048.obj")).unwrap();
+    let off: f32 = mesh
+        .positions
+        .iter()
+        .map(|p| ((*p - centre).length() - radius).abs() * 32.0)
+        .sum::<f32>()
+        / mesh.positions.len() as f32;
+    println!("orbit, frame 48: {off:.3} voxel from the sphere on average");
+    assert!(off < 0.25, "{off}");
     // The splash: 36 frames of particles and skin; the drop lands and spreads into a
     // puddle holding more volume than the falling drop (a sheet of particles dressed on
     // both sides), throwing droplets.

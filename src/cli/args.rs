@@ -20,7 +20,7 @@ pub struct PhysicsArgs {
     #[arg(long, default_value_t = activeskin::skin::speed::DEFAULT_ALPHA)]
     pub alpha: f32,
     /// Surface tension β (world units²/s): smooths, shrinks thin parts and small bubbles
-    /// [default: 8·Δx² per second, the same smoothing in voxels on every grid].
+    /// [default: α·Δx²/8: the same smoothing in voxels on every grid, never a sub-step more].
     #[arg(long)]
     pub beta: Option<f32>,
     /// Volume preservation gain γ_V (world units/s).
@@ -64,7 +64,7 @@ impl PhysicsArgs {
         if !(dx.is_finite() && dx > 0.0) {
             usage!("--voxel-size must be a positive number, got {dx}");
         }
-        let defaults = SpeedParams::default_for(dx);
+        let defaults = SpeedParams::default_for(dx, self.alpha);
         Ok(SkinParams {
             dx,
             speed: SpeedParams {

@@ -1,10 +1,11 @@
 //! `activeskin demo [--out DIR]`: the built-in demo, no input needed — the Fig. 7 morph
-//! (six point skeletons → a pair of spheres: a filament, then a split), a skin chasing
-//! a target that orbits and swells, and a skin dressing a splashing drop of particles
-//! (§6.1), each as VDB, OBJ, EXR and stats sequences.
+//! (six point skeletons → a pair of spheres: a filament, then a split), a skin carried by
+//! the known motion of a target that orbits and swells (§7), and a skin dressing a
+//! splashing drop of particles (§6.1), each as VDB, OBJ, EXR and stats sequences.
 
 use std::path::{Path, PathBuf};
 
+use activeskin::flow::{Flow, Rigid};
 use activeskin::particles::{self, splash};
 use activeskin::skin::AnySkin;
 use activeskin::target::{iso_for_radius, Aabb, Blobs, Density, Sphere, Target, Union};
@@ -12,6 +13,7 @@ use glam::Vec3;
 
 use super::args::{OutputArgs, PhysicsArgs, PrecisionArg};
 use super::skin::run_frames;
+use activeskin::frames::FrameInput;
 
 #[derive(clap::Args)]
 pub struct DemoArgs {
@@ -66,6 +68,21 @@ impl Orbiting {
     }
 }
 
+/// The orbit's motion: half a turn a second about the z axis, plus the breathing along
+/// the sphere's normals.
+impl Flow for Orbiting {
+    fn velocity(&self, p: Vec3) -> Vec3 {
+        let turn = Rigid {
+            center: Vec3::ZERO,
+            linear: Vec3::ZERO,
+            angular: Vec3::new(0.0, 0.0, std::f32::consts::PI),
+        };
+        let tau = std::f32::consts::TAU;
+        let breathing = 0.05 * tau * (tau * self.time).cos();
+        turn.velocity(p) + breathing * (p - self.sphere().center).normalize_or_zero()
+    }
+}
+
 impl Target for Orbiting {
     fn distance(&self, p: Vec3) -> f32 {
         self.sphere().distance(p)
@@ -83,15 +100,19 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     let spheres = Union::fig7_spheres();
     let out = outputs(&args.out, "fig7", args.quiet);
     run_frames((1, 48), skin, fig7.fps, &out, |_| {
-        Ok(Box::new(&spheres) as Box<dyn Target + '_>)
+        Ok(FrameInput::target(Box::new(&spheres)))
     })?;
 
-    let moving = physics(12.0, 0.001);
+    // The orbit's motion is known: the skin is carried by it (§7), α = 4 corrects.
+    let moving = physics(4.0, 0.0005);
     let skin = AnySkin::new(&Orbiting { time: 0.0 }, moving.params(dx)?);
     let out = outputs(&args.out, "orbit", args.quiet);
     run_frames((1, 48), skin, moving.fps, &out, |frame| {
         let time = (frame - 1) as f32 / 24.0;
-        Ok(Box::new(Orbiting { time }) as Box<dyn Target>)
+        Ok(FrameInput {
+            target: Box::new(Orbiting { time }),
+            flow: Some(Box::new(Orbiting { time })),
+        })
     })?;
 
     // The drop of data/splash (same animation), its particles written alongside.
@@ -116,7 +137,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     }
     let out = outputs(&args.out, "splash", args.quiet);
     run_frames((1, clouds.len() as i64), skin, liquid.fps, &out, |frame| {
-        Ok(Box::new(density(frame)) as Box<dyn Target>)
+        Ok(FrameInput::target(Box::new(density(frame))))
     })?;
 
     let shown = args.out.display();

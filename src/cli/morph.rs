@@ -11,6 +11,7 @@ use super::args::{OutputArgs, PhysicsArgs};
 use super::bad_usage;
 use super::skin::{parse_frames, run_frames};
 use activeskin::frames::read_target;
+use activeskin::frames::FrameInput;
 
 #[derive(clap::Args)]
 pub struct MorphArgs {
@@ -78,6 +79,6 @@ pub fn run(args: &MorphArgs) -> anyhow::Result<()> {
     let skin = AnySkin::new(&*from, params);
     let to = &to;
     run_frames(range, skin, args.physics.fps, &args.outputs, |_| {
-        Ok(Box::new(to) as Box<dyn Target + '_>)
+        Ok(FrameInput::target(Box::new(to)))
     })
 }

@@ -1,7 +1,7 @@
 //! `activeskin particles --particles PATTERN --radius R [...]`: a skin dressed on a
 //! particle sequence (paper §6.1), through the same frame loop and outputs as `skin`.
 
-use activeskin::frames::{FrameError, ParticleInput};
+use activeskin::frames::{FrameError, FrameInput, ParticleInput};
 use activeskin::skin::AnySkin;
 use activeskin::target::{iso_for_radius, Target};
 use anyhow::Context;
@@ -86,5 +86,7 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     let first = target_at(range.0)?;
     let skin = AnySkin::new(&*first, params);
     drop(first);
-    run_frames(range, skin, args.physics.fps, &args.outputs, target_at)
+    run_frames(range, skin, args.physics.fps, &args.outputs, |frame| {
+        Ok(FrameInput::target(target_at(frame)?))
+    })
 }

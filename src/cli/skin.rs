@@ -3,13 +3,15 @@
 
 use std::path::PathBuf;
 
-use activeskin::frames::{self, read_target, FrameError, InputFrames, Outputs};
+use activeskin::flow::Flow;
+use activeskin::frames::{
+    self, read_target, FrameError, FrameInput, InputFrames, Outputs, VelocityInput, VelocitySource,
+};
 use activeskin::sequence::parse_range;
 use activeskin::skin::AnySkin;
-use activeskin::target::Target;
 
 use super::args::{OutputArgs, PhysicsArgs};
-use super::bad_usage;
+use super::{bad_usage, pattern_arg};
 
 #[derive(clap::Args)]
 pub struct SkinArgs {
@@ -31,6 +33,8 @@ pub struct SkinArgs {
     /// Start the skin on this VDB level set instead of the first target.
     #[arg(long)]
     init: Option<PathBuf>,
+    #[command(flatten)]
+    velocity: VelocityArgs,
     #[command(flatten)]
     physics: PhysicsArgs,
     #[command(flatten)]
@@ -58,18 +62,72 @@ pub fn run_frames<'t>(
     skin: AnySkin,
     fps: f64,
     outputs: &OutputArgs,
-    target_at: impl FnMut(i64) -> Result<Box<dyn Target + 't>, FrameError>,
+    input_at: impl FnMut(i64) -> Result<FrameInput<'t>, FrameError>,
 ) -> anyhow::Result<()> {
     let mut outputs = Outputs::new(&outputs.spec()?, (range.1 - range.0 + 1) as u64)?;
-    Ok(frames::run(range, skin, fps, &mut outputs, target_at)?)
+    Ok(frames::run(range, skin, fps, &mut outputs, input_at)?)
+}
+
+/// The velocity options of `skin`.
+#[derive(clap::Args)]
+pub struct VelocityArgs {
+    /// Velocity grid (vec3) in the target's files [default: `vel`, `v` or `velocity`
+    /// when present, with a note].
+    #[arg(long, conflicts_with = "no_velocity")]
+    velocity: Option<String>,
+    /// Follow the target by attraction alone, even when its files hold a velocity.
+    #[arg(long)]
+    no_velocity: bool,
+    /// Velocity files of their own (same patterns as --target), when not in the target's.
+    #[arg(long)]
+    velocity_file: Option<String>,
+    /// Multiplies the velocities, for caches in other units (world units per second).
+    #[arg(long, default_value_t = 1.0)]
+    velocity_scale: f32,
+}
+
+impl VelocityArgs {
+    fn input(&self) -> anyhow::Result<VelocityInput> {
+        if !self.velocity_scale.is_finite() {
+            usage!(
+                "--velocity-scale must be a number, got {}",
+                self.velocity_scale
+            );
+        }
+        let source = match (&self.velocity, self.no_velocity) {
+            (_, true) => VelocitySource::Off,
+            (Some(name), false) => VelocitySource::Named(name.clone()),
+            (None, false) => VelocitySource::Auto,
+        };
+        let files = self.velocity_file.as_deref().map(pattern_arg).transpose()?;
+        Ok(VelocityInput {
+            source,
+            files,
+            scale: self.velocity_scale,
+        })
+    }
 }
 
 pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
     let input = input_frames("--target", &args.target, args.frames.as_deref())?;
     let range = input.range;
-    let target_at = |frame: i64| -> Result<Box<dyn Target>, FrameError> {
+    let velocity = args.velocity.input()?;
+    let quiet = args.outputs.quiet;
+    let mut noted = false;
+    let input_at = |frame: i64| -> Result<FrameInput, FrameError> {
         let path = input.file(frame, args.hold_missing)?;
-        Ok(read_target(&path, args.grid.as_deref(), args.iso)?.0)
+        let target = read_target(&path, args.grid.as_deref(), args.iso)?.0;
+        let mut note = |line: String| {
+            if !noted && !quiet {
+                eprintln!("activeskin: {line}");
+            }
+            noted = true;
+        };
+        let flow = velocity.flow(&path, frame, &mut note)?;
+        Ok(FrameInput {
+            target,
+            flow: flow.map(|f| Box::new(f) as Box<dyn Flow>),
+        })
     };
     let first_file = input.file(range.0, args.hold_missing)?;
     let (first_target, dx) = read_target(&first_file, args.grid.as_deref(), args.iso)?;
@@ -82,5 +140,5 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
         None => AnySkin::new(&*first_target, params),
     };
     drop(first_target);
-    run_frames(range, skin, args.physics.fps, &args.outputs, target_at)
+    run_frames(range, skin, args.physics.fps, &args.outputs, input_at)
 }

@@ -3,7 +3,7 @@
 //! active voxels so that a skin just outside the liquid is carried too.
 
 use glam::{DMat4, DVec3, IVec3, Vec3};
-use hashbrown::HashMap;
+use hashbrown::{HashMap, HashSet};
 
 use super::Flow;
 use crate::grid::offset_coords;
@@ -107,32 +107,38 @@ impl Flow for GridFlow {
 }
 
 /// Adds `layers` rings of voxels around those present, each the mean of its present face
-/// neighbours (a constant extension of the velocity along the normal, roughly).
+/// neighbours (a constant extension of the velocity along the normal, roughly). Each mean
+/// sums the faces in a fixed order, so the result does not depend on the map's order (a
+/// resumed run must repeat an uninterrupted one bit for bit).
 fn extend(voxels: &mut HashMap<IVec3, Vec3>, layers: u32) {
-    let faces = [
-        IVec3::X,
+    const FACES: [IVec3; 6] = [
         IVec3::NEG_X,
-        IVec3::Y,
+        IVec3::X,
         IVec3::NEG_Y,
-        IVec3::Z,
+        IVec3::Y,
         IVec3::NEG_Z,
+        IVec3::Z,
     ];
     for _ in 0..layers {
-        let mut ring: HashMap<IVec3, (Vec3, u32)> = HashMap::new();
-        for (&v, &u) in voxels.iter() {
-            for f in faces {
-                let n = v + f;
-                if !voxels.contains_key(&n) {
-                    let e = ring.entry(n).or_insert((Vec3::ZERO, 0));
-                    e.0 += u;
-                    e.1 += 1;
-                }
-            }
-        }
+        let ring: HashSet<IVec3> = voxels
+            .keys()
+            .flat_map(|&v| FACES.map(|f| v + f))
+            .filter(|n| !voxels.contains_key(n))
+            .collect();
         if ring.is_empty() {
             return;
         }
-        voxels.extend(ring.into_iter().map(|(v, (sum, n))| (v, sum / n as f32)));
+        let added: Vec<(IVec3, Vec3)> = ring
+            .into_iter()
+            .map(|n| {
+                let (sum, count) = FACES
+                    .iter()
+                    .filter_map(|&f| voxels.get(&(n + f)))
+                    .fold((Vec3::ZERO, 0u32), |(s, c), &u| (s + u, c + 1));
+                (n, sum / count as f32)
+            })
+            .collect();
+        voxels.extend(added);
     }
 }
 

@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use super::FrameError;
+use crate::flow::GridFlow;
 use crate::particles;
 use crate::sequence::FramePattern;
 use crate::target::{Density, FogTarget, LevelSetTarget, Target};
@@ -149,5 +150,78 @@ impl ParticleInput {
             vdb::write_grids(&out.path(frame), &[(&fog, WriteOptions::default())], &meta)?;
         }
         Ok(density)
+    }
+}
+
+/// Where a frame's velocity comes from.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum VelocitySource {
+    /// No velocity: the skin follows by attraction alone.
+    Off,
+    /// A vector grid named `vel`, `v` or `velocity` when the file holds one.
+    Auto,
+    /// This grid, which must be there.
+    Named(String),
+}
+
+/// The velocity of each frame (paper §7): a vector grid in the target's file or in files
+/// of its own, in world units per second after `scale`.
+#[derive(Debug, Clone)]
+pub struct VelocityInput {
+    pub source: VelocitySource,
+    /// Velocity files, when not in the target's.
+    pub files: Option<FramePattern>,
+    pub scale: f32,
+}
+
+/// The names a simulation's velocity goes by: Houdini `vel` (and `v` for points),
+/// Mantaflow `velocity`.
+pub const VELOCITY_NAMES: [&str; 3] = ["vel", "v", "velocity"];
+
+impl VelocityInput {
+    /// The flow of `frame`, whose target is `target_file`; `None` when off, or when
+    /// automatic and the file holds no velocity grid. `note` hears which grid was chosen.
+    pub fn flow(
+        &self,
+        target_file: &Path,
+        frame: i64,
+        note: &mut dyn FnMut(String),
+    ) -> Result<Option<GridFlow>, FrameError> {
+        let path = match &self.files {
+            Some(pattern) => pattern.path(frame),
+            None => target_file.to_path_buf(),
+        };
+        let name = match &self.source {
+            VelocitySource::Off => return Ok(None),
+            VelocitySource::Named(name) => name.clone(),
+            VelocitySource::Auto => {
+                let grids = vdb::list_grids(&path)?;
+                let vector = |n: &str| {
+                    grids
+                        .iter()
+                        .any(|g| g.name == n && g.value_type.starts_with("vec3"))
+                };
+                match VELOCITY_NAMES.into_iter().find(|n| vector(n)) {
+                    Some(n) => {
+                        note(format!(
+                            "velocity: grid '{n}' of {} (--no-velocity to ignore it)",
+                            path.display()
+                        ));
+                        n.to_string()
+                    }
+                    None => return Ok(None),
+                }
+            }
+        };
+        let grid = vdb::read_vector_grid(&path, Some(&name))?;
+        if !grid.uniform_linear {
+            return Err(FrameError::Data(format!(
+                "{}: velocity grid '{name}' has a non-uniform or non-linear transform",
+                path.display()
+            )));
+        }
+        GridFlow::new(&grid, self.scale)
+            .map(Some)
+            .map_err(|m| FrameError::Data(format!("{}: {m}", path.display())))
     }
 }

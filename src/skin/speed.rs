@@ -35,19 +35,21 @@ pub struct SpeedParams {
 /// Default attraction rate α, 1/s.
 pub const DEFAULT_ALPHA: f32 = 4.0;
 
-/// Default surface tension in voxels²/s: β = this × Δx². Expressed per voxel, tension
-/// smooths the same number of voxels whatever the cell, and its explicit step bound
-/// (safety × Δx²/(6β), §4.8) is the same 1/96 s on every grid: at 24 fps tension never
-/// asks for more than 4 sub-steps a frame. (4 Δx²/s takes 2 sub-steps but leaves the
-/// interior voids of a start-up particle density twice as long.)
-pub const DEFAULT_TENSION: f32 = 8.0;
+/// Default surface tension: β = this × α × Δx². Per voxel, tension smooths the same
+/// number of voxels whatever the cell; per α, its explicit step bound Δx²/(6β) = 4/(3α)
+/// stays above the attraction's own 1/α (§4.8), so the default tension never adds a
+/// sub-step; and its rest offset on a sphere of R voxels, 2β/(αR) = 1/(4R) voxel, stays
+/// under the skin's other errors. (8 Δx²/s whatever α, tried first, shrank a sphere of
+/// 8 voxels by half a voxel at α = 4.)
+pub const DEFAULT_TENSION_PER_ALPHA: f32 = 0.125;
 
 impl SpeedParams {
-    /// The defaults on voxels of size `dx`: α = [`DEFAULT_ALPHA`], β =
-    /// [`DEFAULT_TENSION`]·Δx².
-    pub fn default_for(dx: f32) -> Self {
+    /// The defaults on voxels of size `dx` with attraction `alpha`: β =
+    /// [`DEFAULT_TENSION_PER_ALPHA`]·α·Δx².
+    pub fn default_for(dx: f32, alpha: f32) -> Self {
         SpeedParams {
-            beta: DEFAULT_TENSION * dx * dx,
+            alpha,
+            beta: DEFAULT_TENSION_PER_ALPHA * alpha * dx * dx,
             ..SpeedParams::default()
         }
     }
