@@ -55,12 +55,19 @@ pub enum FrameError {
 pub struct FrameInput<'t> {
     pub target: Box<dyn Target + 't>,
     pub flow: Option<Box<dyn Flow + 't>>,
+    /// Seed the skin where the target has material it has none near ([`AnySkin::seed`]):
+    /// for simulations (an emitter, a droplet the skin missed), not for morphs.
+    pub seed: bool,
 }
 
 impl<'t> FrameInput<'t> {
-    /// A target alone, followed by attraction.
+    /// A target alone, followed by attraction, never seeded (a morph's end shape).
     pub fn target(target: Box<dyn Target + 't>) -> Self {
-        FrameInput { target, flow: None }
+        FrameInput {
+            target,
+            flow: None,
+            seed: false,
+        }
     }
 }
 

@@ -9,10 +9,11 @@ mod advect;
 mod any;
 mod band;
 mod export;
+mod seed;
 pub mod speed;
 mod timestep;
 
-use glam::{IVec3, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::flow::{Backtracked, Flow};
@@ -103,24 +104,8 @@ impl<P: Potential> Skin<P> {
             origin: Vec3::ZERO,
             dx,
         };
-        let bounds = start.bounds().padded((w + 2.0) * dx);
-        let lo = (bounds.min / (dx * BLOCK_DIM as f32)).floor().as_ivec3() - IVec3::ONE;
-        let hi = (bounds.max / (dx * BLOCK_DIM as f32)).ceil().as_ivec3() + IVec3::ONE;
-        let coords: Vec<IVec3> = (lo.x..=hi.x)
-            .flat_map(|x| {
-                (lo.y..=hi.y).flat_map(move |y| (lo.z..=hi.z).map(move |z| IVec3::new(x, y, z)))
-            })
-            .collect();
-        // A block whose centre is farther from the surface than its half-diagonal plus
-        // the band is a tile; the rest are sampled node by node.
-        let reach = (3.5 * 3f32.sqrt() + w + 1.0) * dx;
-        let classified: Vec<(IVec3, f32)> = coords
-            .par_iter()
-            .map(|&c| {
-                let centre = xf.apply((c * BLOCK_DIM).as_vec3() + Vec3::splat(3.5));
-                (c, start.distance(centre))
-            })
-            .collect();
+        let reach = seed::block_reach(w, dx);
+        let classified = seed::classify_blocks(start, xf, w);
         let mut grid = SparseGrid::new();
         for (c, d) in classified {
             if d > reach {

@@ -112,6 +112,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         Ok(FrameInput {
             target: Box::new(Orbiting { time }),
             flow: Some(Box::new(Orbiting { time })),
+            seed: false,
         })
     })?;
 
@@ -137,7 +138,11 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     }
     let out = outputs(&args.out, "splash", args.quiet);
     run_frames((1, clouds.len() as i64), skin, liquid.fps, &out, |frame| {
-        Ok(FrameInput::target(Box::new(density(frame))))
+        Ok(FrameInput {
+            target: Box::new(density(frame)),
+            flow: None,
+            seed: true,
+        })
     })?;
 
     let shown = args.out.display();

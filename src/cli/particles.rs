@@ -87,6 +87,10 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     let skin = AnySkin::new(&*first, params);
     drop(first);
     run_frames(range, skin, args.physics.fps, &args.outputs, |frame| {
-        Ok(FrameInput::target(target_at(frame)?))
+        Ok(FrameInput {
+            target: target_at(frame)?,
+            flow: None,
+            seed: true,
+        })
     })
 }

@@ -127,6 +127,7 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
         Ok(FrameInput {
             target,
             flow: flow.map(|f| Box::new(f) as Box<dyn Flow>),
+            seed: true,
         })
     };
     let first_file = input.file(range.0, args.hold_missing)?;

@@ -64,6 +64,9 @@ impl AnySkin {
     pub fn set_time(&mut self, time: f64) {
         each!(self, s => s.set_time(time))
     }
+    pub fn seed(&mut self, target: &dyn Target) -> usize {
+        each!(self, s => s.seed(target))
+    }
     pub fn settle(&mut self) -> GridData {
         each!(self, s => s.settle())
     }

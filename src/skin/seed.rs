@@ -1,0 +1,110 @@
+//! Topology from the target: where the target has material and the skin is wholly
+//! outside — new liquid from an emitter, a droplet the skin missed, a target that ran
+//! away from it — the skin is seeded with the target's own surface there, so no target
+//! component stays missing. (The paper's skin only changes topology by its own motion.)
+
+use glam::{IVec3, Vec3};
+use hashbrown::HashSet;
+use rayon::prelude::*;
+
+use super::Skin;
+use crate::grid::{offset_coords, Potential, BLOCK_DIM, BLOCK_NODES};
+use crate::polygonize::IndexToWorld;
+use crate::target::Target;
+
+/// How far from a block's centre the target's surface may be for the block to hold part
+/// of the band: its half-diagonal, the band and a voxel.
+pub(super) fn block_reach(band_width: f32, dx: f32) -> f32 {
+    (3.5 * 3f32.sqrt() + band_width + 1.0) * dx
+}
+
+/// The blocks around the target's bounds with the target's distance at each centre, in
+/// coordinate order.
+pub(super) fn classify_blocks(
+    target: &dyn Target,
+    xf: IndexToWorld,
+    band_width: f32,
+) -> Vec<(IVec3, f32)> {
+    let dx = xf.dx;
+    let bounds = target.bounds().padded((band_width + 2.0) * dx);
+    let lo = ((bounds.min - xf.origin) / (dx * BLOCK_DIM as f32))
+        .floor()
+        .as_ivec3()
+        - IVec3::ONE;
+    let hi = ((bounds.max - xf.origin) / (dx * BLOCK_DIM as f32))
+        .ceil()
+        .as_ivec3()
+        + IVec3::ONE;
+    let coords: Vec<IVec3> = (lo.x..=hi.x)
+        .flat_map(|x| {
+            (lo.y..=hi.y).flat_map(move |y| (lo.z..=hi.z).map(move |z| IVec3::new(x, y, z)))
+        })
+        .collect();
+    coords
+        .par_iter()
+        .map(|&c| {
+            let centre = xf.apply((c * BLOCK_DIM).as_vec3() + Vec3::splat(3.5));
+            (c, target.distance(centre))
+        })
+        .collect()
+}
+
+impl<P: Potential> Skin<P> {
+    /// Seeds the skin where `target` has material and the skin has none within a block
+    /// (8 voxels) around: each such block takes the smaller of the skin's potential and
+    /// the target's distance. Returns the number of blocks seeded (then the tube and the
+    /// mesh are rebuilt).
+    pub fn seed(&mut self, target: &dyn Target) -> usize {
+        let (dx, w) = (self.params.dx, self.params.band_width);
+        let reach = block_reach(w, dx);
+        // Blocks where the skin has material: a stored block with a node inside, or an
+        // inside tile.
+        let occupied: HashSet<IVec3> = self
+            .grid
+            .blocks()
+            .par_iter()
+            .filter(|b| b.values.iter().any(|v| v.to_f32() < 0.0))
+            .map(|b| b.coord)
+            .collect::<Vec<_>>()
+            .into_iter()
+            .chain(self.grid.inside_tiles().iter().copied())
+            .collect();
+        let near_skin = |c: IVec3| {
+            (0..27).any(|n| {
+                let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
+                occupied.contains(&(c + d))
+            })
+        };
+        let xf = self.xf;
+        let wanted: Vec<(IVec3, Box<[f32; BLOCK_NODES]>)> = classify_blocks(target, xf, w)
+            .into_par_iter()
+            .filter(|&(c, d)| d <= reach && !near_skin(c))
+            .filter_map(|(c, _)| {
+                let base = c * BLOCK_DIM;
+                let mut values = Box::new([0.0f32; BLOCK_NODES]);
+                let mut material = false;
+                for (offset, v) in values.iter_mut().enumerate() {
+                    let d = target.distance(xf.apply((base + offset_coords(offset)).as_vec3()));
+                    material |= d < 0.0;
+                    *v = (d / (w * dx)).clamp(-1.0, 1.0);
+                }
+                material.then_some((c, values))
+            })
+            .collect();
+        if wanted.is_empty() {
+            return 0;
+        }
+        for (c, values) in &wanted {
+            let id = self.grid.touch(*c);
+            let block = &mut self.grid.blocks_mut()[id.0 as usize];
+            for (v, &t) in block.values.iter_mut().zip(values.iter()) {
+                if t < v.to_f32() {
+                    *v = P::from_f32(t);
+                }
+            }
+        }
+        crate::grid::tube::upkeep(&mut self.grid);
+        self.polygonize();
+        wanted.len()
+    }
+}
