@@ -90,6 +90,7 @@ LevelSetMeasures measure_level_set(const FloatGrid &grid);
 MorphTiming morph_timing(const FloatGrid &source, const FloatGrid &target, double duration);
 MorphTiming morph_advance(FloatGrid &grid, const FloatGrid &target, double duration);
 MorphTiming mean_curvature_flow(FloatGrid &grid, uint32_t iterations);
+MorphTiming advect_rotation(FloatGrid &grid, double omega, double duration);
 uint64_t mem_usage(const FloatGrid &grid);
 PointBuffers read_points(rust::Str path, rust::Str name);
 void write_points(rust::Str path, rust::Slice<const float> positions,

@@ -3,6 +3,7 @@
 #include "activeskin/cpp/vdb_impl.h"
 
 #include <openvdb/tools/Diagnostics.h>
+#include <openvdb/tools/LevelSetAdvect.h>
 #include <openvdb/tools/LevelSetFilter.h>
 #include <openvdb/tools/LevelSetMeasure.h>
 #include <openvdb/tools/LevelSetMorph.h>
@@ -111,6 +112,35 @@ MorphTiming morph_timing(const FloatGrid &source, const FloatGrid &target, doubl
 
 MorphTiming morph_advance(FloatGrid &grid, const FloatGrid &target, double duration) {
   return morph(*grid.impl().grid, *target.impl().grid, duration);
+}
+
+namespace {
+// A rigid rotation about the z axis through the origin, in world space, for
+// LevelSetAdvection (which samples it through the grid's transform).
+struct RotationField {
+  using ValueType = double;
+  using VectorType = openvdb::Vec3d;
+  double omega;
+  openvdb::math::Transform transform() const { return openvdb::math::Transform(); }
+  VectorType operator()(const openvdb::Vec3d &xyz, ValueType) const {
+    return VectorType(-omega * xyz[1], omega * xyz[0], 0.0);
+  }
+  VectorType operator()(const openvdb::Coord &ijk, ValueType t) const {
+    return (*this)(ijk.asVec3d(), t);
+  }
+};
+}  // namespace
+
+MorphTiming advect_rotation(FloatGrid &handle, double omega, double duration) {
+  auto &grid = *handle.impl().grid;
+  if (grid.getGridClass() != openvdb::GRID_LEVEL_SET) {
+    throw openvdb::TypeError("advection needs a grid of class level set");
+  }
+  return timed(grid, [&] {
+    RotationField field{omega};
+    openvdb::tools::LevelSetAdvection<openvdb::FloatGrid, RotationField> advect(grid, field);
+    return advect.advect(0.0, duration);
+  });
 }
 
 MorphTiming mean_curvature_flow(FloatGrid &handle, uint32_t iterations) {

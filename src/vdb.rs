@@ -254,6 +254,13 @@ impl Grid {
             .map_err(|e| VdbError::Grid(one_line(e.what())))
     }
 
+    /// `duration` of OpenVDB's `LevelSetAdvection` in a rotation about the z axis at
+    /// `omega` radians per second, in place, timed in C++.
+    pub fn advect_rotation(&mut self, omega: f64, duration: f64) -> Result<MorphTiming, VdbError> {
+        ffi::bridge::advect_rotation(self.inner.pin_mut(), omega, duration)
+            .map_err(|e| VdbError::Grid(one_line(e.what())))
+    }
+
     /// OpenVDB's `memUsage()`: bytes held by the grid.
     pub fn mem_usage(&self) -> u64 {
         ffi::bridge::mem_usage(&self.inner)

@@ -22,6 +22,7 @@ fn bench_reports_every_ratio() {
         ("scaling", "exponent"),
         ("scaling", "speedup_over_1_thread"),
         ("flicker", "gain"),
+        ("advection", "speedup"),
     ] {
         let v = report[section][key].as_f64();
         assert!(
@@ -48,6 +49,11 @@ fn bench_reports_every_ratio() {
         );
     }
     assert!(races[2]["beta"].as_f64().unwrap() > 0.0);
+    // Advection is deterministic on both sides: one turn keeps the volume within 1 %.
+    for side in ["ours_volume_pct", "openvdb_volume_pct"] {
+        let v = report["advection"][side].as_f64().unwrap();
+        assert!(v.abs() < 1.0, "advection {side} {v}");
+    }
     // Flicker is deterministic: the goal (3× less than per-frame surfacing) is asserted.
     assert!(
         report["flicker"]["gain"].as_f64().unwrap() >= 3.0,

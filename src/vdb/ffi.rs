@@ -209,6 +209,13 @@ pub(crate) mod bridge {
         /// `iterations` of `tools::LevelSetFilter::meanCurvature` in place, timed: each
         /// moves the surface by (κ₁+κ₂)/2 · Δx²/3.
         fn mean_curvature_flow(grid: Pin<&mut FloatGrid>, iterations: u32) -> Result<MorphTiming>;
+        /// `duration` of `tools::LevelSetAdvection` (default schemes: HJ-WENO5, TVD-RK2)
+        /// in a rotation about the z axis at `omega` radians per second, in place, timed.
+        fn advect_rotation(
+            grid: Pin<&mut FloatGrid>,
+            omega: f64,
+            duration: f64,
+        ) -> Result<MorphTiming>;
         /// The positions (and `pscale`) of the point data grid `name`, or of the first one
         /// when `name` is empty.
         fn read_points(path: &str, name: &str) -> Result<PointBuffers>;
