@@ -3,6 +3,7 @@
 //! velocity grids read from simulation caches.
 
 mod grid;
+pub mod scale;
 
 use glam::Vec3;
 

@@ -34,6 +34,18 @@ fn sphere(frame: i64) -> Sphere {
 /// does, a velocity grid `vel_name` over the liquid's voxels only (the skin's band outside
 /// it is reached by extension), collocated or staggered.
 fn write_sequence(dir: &Path, vel_name: &str, staggered: bool, half: bool) -> String {
+    write_sequence_in(dir, vel_name, staggered, half, 1.0)
+}
+
+/// [`write_sequence`] with the velocity in other units: `per_world` cache units per world
+/// unit per second.
+fn write_sequence_in(
+    dir: &Path,
+    vel_name: &str,
+    staggered: bool,
+    half: bool,
+    per_world: f32,
+) -> String {
     for frame in 1..=FRAMES {
         let s = sphere(frame);
         let grid = Grid::from_data(&sample::level_set(&s, DX, 3.0)).unwrap();
@@ -55,7 +67,7 @@ fn write_sequence(dir: &Path, vel_name: &str, staggered: bool, half: bool) -> St
                         if staggered {
                             p[c] -= 0.5;
                         }
-                        velocity(p * DX)[c]
+                        velocity(p * DX)[c] * per_world
                     }));
                 }
             }
@@ -115,8 +127,12 @@ fn a_vel_grid_next_to_the_surface_is_found_and_followed() {
                 "collocated"
             }
         );
-        assert_eq!(notes.lines().count(), 1, "{notes}");
+        assert_eq!(notes.lines().count(), 2, "{notes}");
         assert!(notes.contains("velocity: grid 'vel'"), "{notes}");
+        assert!(
+            notes.contains("velocity: scale 0.9") || notes.contains("velocity: scale 1.0"),
+            "{notes}"
+        );
         assert!(quiet.is_empty(), "{quiet}");
         assert!(carried < 0.2, "{carried}");
         assert!(attracted > 4.0 * carried, "{attracted} vs {carried}");
@@ -209,4 +225,72 @@ fn a_resumed_run_in_a_flow_repeats_the_whole_run() {
         let b = std::fs::read(part.path().join(&name)).unwrap();
         assert!(a == b, "{name} differs after resuming at frame 8");
     }
+}
+
+/// The `velocity_scale` field of the first stats line.
+fn measured(dir: &Path) -> serde_json::Value {
+    let stats = std::fs::read_to_string(dir.join("stats.jsonl")).unwrap();
+    let first: serde_json::Value = serde_json::from_str(stats.lines().next().unwrap()).unwrap();
+    first["velocity_scale"].clone()
+}
+
+#[test]
+fn the_velocitys_units_are_measured_from_the_motion() {
+    // Voxels per second, voxels per frame and centimetres per second.
+    for (units, per_world) in [
+        ("voxels/s", 1.0 / DX),
+        ("voxels/frame", 1.0 / (DX * 24.0)),
+        ("cm/s", 100.0),
+    ] {
+        let data = common::scratch();
+        let target = write_sequence_in(data.path(), "vel", true, false, per_world);
+        let out = common::scratch();
+        let stats = out
+            .path()
+            .join("stats.jsonl")
+            .to_string_lossy()
+            .into_owned();
+        let (carried, notes) = run(out.path(), &target, &["--stats", &stats]);
+        let fit = measured(out.path());
+        let scale = fit["scale"].as_f64().unwrap();
+        println!("velocity in {units}: measured scale {scale:.5} (exact {:.5}), {carried:.3} voxel off; {}", 1.0 / per_world, notes.trim());
+        assert!(
+            (scale * f64::from(per_world) - 1.0).abs() < 0.05,
+            "{units}: {fit}"
+        );
+        assert_eq!(fit["pairs"].as_array().unwrap().len(), 3, "{fit}");
+        assert!(carried < 0.2, "{units}: {carried}");
+    }
+}
+
+#[test]
+fn a_velocity_that_does_not_explain_the_motion_is_left_out() {
+    // The velocity of a rotation the other way round: it predicts the opposite motion.
+    let data = common::scratch();
+    let target = write_sequence_in(data.path(), "vel", false, false, -1.0);
+    let out = common::scratch();
+    let stats = out
+        .path()
+        .join("stats.jsonl")
+        .to_string_lossy()
+        .into_owned();
+    let (off, notes) = run(out.path(), &target, &["--stats", &stats]);
+    assert!(
+        notes.contains("warning: the velocity does not explain"),
+        "{notes}"
+    );
+    assert_eq!(notes.trim().lines().count(), 1, "{notes}");
+    assert!(measured(out.path())["scale"].is_null());
+    // As without velocity.
+    let plain = common::scratch();
+    let (without, _) = run(plain.path(), &target, &["--no-velocity"]);
+    assert!((off - without).abs() < 1e-9, "{off} vs {without}");
+    // A sequence of one frame has no pair to measure on: the scale stays as given.
+    let one = common::scratch();
+    let mesh = one.path().join("m.####.obj").to_string_lossy().into_owned();
+    let single = activeskin(&[
+        "skin", "--target", &target, "--frames", "1-1", "--mesh", &mesh,
+    ]);
+    assert_ok(&single);
+    assert!(!stderr(&single).contains("scale"), "{}", stderr(&single));
 }

@@ -129,6 +129,7 @@ impl OutputArgs {
             } else {
                 Progress::Auto
             },
+            stats_fields: Default::default(),
         })
     }
 }

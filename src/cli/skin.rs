@@ -5,7 +5,8 @@ use std::path::PathBuf;
 
 use activeskin::flow::Flow;
 use activeskin::frames::{
-    self, read_target, FrameError, FrameInput, InputFrames, Outputs, VelocityInput, VelocitySource,
+    self, read_target, FrameError, FrameInput, InputFrames, Outputs, ScaleEstimate, VelocityInput,
+    VelocitySource,
 };
 use activeskin::sequence::parse_range;
 use activeskin::skin::AnySkin;
@@ -81,37 +82,101 @@ pub struct VelocityArgs {
     /// Velocity files of their own (same patterns as --target), when not in the target's.
     #[arg(long)]
     velocity_file: Option<String>,
-    /// Multiplies the velocities, for caches in other units (world units per second).
-    #[arg(long, default_value_t = 1.0)]
-    velocity_scale: f32,
+    /// Turns the velocities into world units per second: a number, or `auto` to measure
+    /// it from the surface's own motion between the first frames (warns and leaves the
+    /// velocity out when it does not explain that motion).
+    #[arg(long, default_value = "auto")]
+    velocity_scale: String,
 }
 
 impl VelocityArgs {
-    fn input(&self) -> anyhow::Result<VelocityInput> {
-        if !self.velocity_scale.is_finite() {
-            usage!(
-                "--velocity-scale must be a number, got {}",
-                self.velocity_scale
-            );
-        }
+    /// The velocity input, and whether its scale is to be measured.
+    fn input(&self) -> anyhow::Result<(VelocityInput, bool)> {
+        let auto = self.velocity_scale.eq_ignore_ascii_case("auto");
+        let scale = if auto {
+            1.0
+        } else {
+            match self.velocity_scale.parse::<f32>() {
+                Ok(k) if k.is_finite() => k,
+                _ => usage!(
+                    "--velocity-scale must be a number or auto, got '{}'",
+                    self.velocity_scale
+                ),
+            }
+        };
         let source = match (&self.velocity, self.no_velocity) {
             (_, true) => VelocitySource::Off,
             (Some(name), false) => VelocitySource::Named(name.clone()),
             (None, false) => VelocitySource::Auto,
         };
         let files = self.velocity_file.as_deref().map(pattern_arg).transpose()?;
-        Ok(VelocityInput {
+        let input = VelocityInput {
             source,
             files,
-            scale: self.velocity_scale,
-        })
+            scale,
+        };
+        Ok((input, auto))
     }
+}
+
+/// Settles `--velocity-scale auto`: measured from the first frame pairs; with no pair to
+/// measure on (one frame, no velocity), the scale stays 1; with a poor fit the velocity
+/// is left out, said in one line. Returns the estimate for the stats.
+fn settle_scale(
+    velocity: &mut VelocityInput,
+    input: &InputFrames,
+    args: &SkinArgs,
+) -> anyhow::Result<Option<ScaleEstimate>> {
+    if velocity.source == VelocitySource::Off {
+        return Ok(None);
+    }
+    let estimate = velocity.measure_scale(input, args.grid.as_deref(), args.physics.fps)?;
+    let Some(((a, _), _)) = estimate.fits.first() else {
+        return Ok(None);
+    };
+    let b = estimate.fits.last().map_or(*a, |f| f.0 .1);
+    let best_r2 = estimate
+        .fits
+        .iter()
+        .map(|f| f.1.r2)
+        .fold(f64::MIN, f64::max);
+    let say = |line: String| {
+        if !args.outputs.quiet {
+            eprintln!("activeskin: {line}");
+        }
+    };
+    match estimate.scale {
+        Some(k) => {
+            velocity.scale = k as f32;
+            let r2 = estimate
+                .fits
+                .iter()
+                .map(|f| f.1.r2)
+                .fold(f64::MAX, f64::min);
+            say(format!(
+                "velocity: scale {k:.4} measured from frames {a}–{b} (R² ≥ {r2:.2}); --velocity-scale to override"
+            ));
+        }
+        None => {
+            velocity.source = VelocitySource::Off;
+            say(format!(
+                "warning: the velocity does not explain the surface's motion over frames {a}–{b} (R² {best_r2:.2} < {}): left out; give --velocity-scale to use it anyway",
+                activeskin::flow::scale::MIN_R2
+            ));
+        }
+    }
+    Ok(Some(estimate))
 }
 
 pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
     let input = input_frames("--target", &args.target, args.frames.as_deref())?;
     let range = input.range;
-    let velocity = args.velocity.input()?;
+    let (mut velocity, auto_scale) = args.velocity.input()?;
+    let estimate = if auto_scale {
+        settle_scale(&mut velocity, &input, args)?
+    } else {
+        None
+    };
     let quiet = args.outputs.quiet;
     let mut noted = false;
     let input_at = |frame: i64| -> Result<FrameInput, FrameError> {
@@ -141,5 +206,17 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
         None => AnySkin::new(&*first_target, params),
     };
     drop(first_target);
-    run_frames(range, skin, args.physics.fps, &args.outputs, input_at)
+    let mut spec = args.outputs.spec()?;
+    if let Some(estimate) = &estimate {
+        spec.stats_fields
+            .insert("velocity_scale".into(), estimate.to_json());
+    }
+    let mut outputs = Outputs::new(&spec, (range.1 - range.0 + 1) as u64)?;
+    Ok(frames::run(
+        range,
+        skin,
+        args.physics.fps,
+        &mut outputs,
+        input_at,
+    )?)
 }

@@ -2,8 +2,11 @@
 
 use std::path::{Path, PathBuf};
 
+use glam::Vec3;
+
 use super::FrameError;
-use crate::flow::GridFlow;
+use crate::flow::scale::{self, ScaleFit};
+use crate::flow::{GridFlow, Mean};
 use crate::particles;
 use crate::sequence::FramePattern;
 use crate::target::{Density, FogTarget, LevelSetTarget, Target};
@@ -224,4 +227,130 @@ impl VelocityInput {
             .map(Some)
             .map_err(|m| FrameError::Data(format!("{}: {m}", path.display())))
     }
+}
+
+/// The velocity's scale as measured by [`VelocityInput::measure_scale`].
+#[derive(Debug, Clone)]
+pub struct ScaleEstimate {
+    /// The median of the good fits; `None` when no pair fits well.
+    pub scale: Option<f64>,
+    /// Each frame pair tried, with its fit.
+    pub fits: Vec<((i64, i64), ScaleFit)>,
+}
+
+impl ScaleEstimate {
+    /// The estimate as a stats field.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "scale": self.scale,
+            "pairs": self.fits.iter().map(|((a, b), f)| serde_json::json!({
+                "frames": [a, b], "scale": f.scale, "r2": f.r2, "samples": f.samples,
+            })).collect::<Vec<_>>(),
+        })
+    }
+}
+
+/// Frame pairs the scale is measured on, at most.
+const SCALE_PAIRS: usize = 3;
+/// Points per pair, at most (every k-th band voxel).
+const SCALE_POINTS: usize = 20_000;
+
+impl VelocityInput {
+    /// Measures the factor that turns the velocity into world units per second from the
+    /// first frame pairs of `frames` whose level sets (grid `grid`) and velocities exist:
+    /// the surface's own motion between them against the velocity's prediction
+    /// ([`scale::fit`]), over the voxels within 1.5 voxels of the earlier surface.
+    pub fn measure_scale(
+        &self,
+        input: &InputFrames,
+        grid: Option<&str>,
+        fps: f64,
+    ) -> Result<ScaleEstimate, FrameError> {
+        let mut fits = Vec::new();
+        let unscaled = VelocityInput {
+            scale: 1.0,
+            ..self.clone()
+        };
+        let (first, last) = input.range;
+        let frames: Vec<i64> = input
+            .existing
+            .iter()
+            .copied()
+            .filter(|f| (first..=last).contains(f))
+            .collect();
+        for pair in frames.windows(2).filter(|w| w[1] == w[0] + 1) {
+            if fits.len() == SCALE_PAIRS {
+                break;
+            }
+            let (a, b) = (pair[0], pair[1]);
+            // A pair without velocity or level sets, or a frame that cannot be read, ends
+            // the measurement (the run reports a bad frame when it gets there, after writing
+            // the frames before).
+            match fit_pair(&unscaled, input, grid, (a, b), fps) {
+                Ok(Some(fit)) => fits.push(((a, b), fit)),
+                Ok(None) | Err(_) => break,
+            }
+        }
+        let good: Vec<ScaleFit> = fits.iter().map(|(_, f)| *f).collect();
+        Ok(ScaleEstimate {
+            scale: scale::median_scale(&good),
+            fits,
+        })
+    }
+}
+
+/// The fit of one frame pair; `None` when a frame lacks a velocity or is not a level set.
+fn fit_pair(
+    unscaled: &VelocityInput,
+    input: &InputFrames,
+    grid: Option<&str>,
+    (a, b): (i64, i64),
+    fps: f64,
+) -> Result<Option<ScaleFit>, FrameError> {
+    let (path_a, path_b) = (input.pattern.path(a), input.pattern.path(b));
+    let mut quiet = |_: String| {};
+    let (Some(flow_a), Some(flow_b)) = (
+        unscaled.flow(&path_a, a, &mut quiet)?,
+        unscaled.flow(&path_b, b, &mut quiet)?,
+    ) else {
+        return Ok(None);
+    };
+    let (data_a, data_b) = (
+        Grid::read(&path_a, grid)?.to_data()?,
+        Grid::read(&path_b, grid)?.to_data()?,
+    );
+    if data_a.class != GridClass::LevelSet || data_b.class != GridClass::LevelSet {
+        return Ok(None); // a fog volume's density is not a distance
+    }
+    let dx = data_a.transform.voxel_size() as f32;
+    let points = band_points(&data_a, 1.5 * dx);
+    let step = points.len().div_ceil(SCALE_POINTS).max(1);
+    let points: Vec<Vec3> = points.into_iter().step_by(step).collect();
+    let fit = scale::fit(
+        &LevelSetTarget::new(&data_a),
+        &LevelSetTarget::new(&data_b),
+        &Mean(&flow_a, &flow_b),
+        &points,
+        (1.0 / fps) as f32,
+        0.5 * dx,
+    );
+    Ok(Some(fit))
+}
+
+/// World positions of a level set's active voxels with |φ| < `within`.
+fn band_points(data: &GridData, within: f32) -> Vec<Vec3> {
+    let mut points = Vec::new();
+    for (leaf, origin) in data.leaf_origins.iter().enumerate() {
+        let mask = &data.leaf_masks[leaf];
+        for (offset, &phi) in data.leaf_values(leaf).iter().enumerate() {
+            if mask[offset >> 6] >> (offset & 63) & 1 == 1 && phi.abs() < within {
+                let l = crate::grid::offset_coords(offset);
+                let ijk = [origin[0] + l.x, origin[1] + l.y, origin[2] + l.z].map(f64::from);
+                points.push(Vec3::from(
+                    data.transform.index_to_world(ijk).map(|c| c as f32),
+                ));
+            }
+        }
+    }
+    points
 }

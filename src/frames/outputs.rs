@@ -37,6 +37,9 @@ pub struct OutputSpec {
     /// Continue after the last skin VDB written under `out`.
     pub resume: bool,
     pub progress: Progress,
+    /// Fields added to every stats line (how the run was set up, e.g. the velocity's
+    /// measured scale).
+    pub stats_fields: serde_json::Map<String, serde_json::Value>,
 }
 
 /// Writes each frame's outputs and reports progress.
@@ -46,6 +49,7 @@ pub struct Outputs {
     mesh: Option<FramePattern>,
     render: Option<(FramePattern, (usize, usize), Option<Aabb>)>,
     stats: Option<(PathBuf, Vec<u8>)>,
+    stats_fields: serde_json::Map<String, serde_json::Value>,
     progress: ProgressBar,
     plain: bool,
 }
@@ -101,6 +105,7 @@ impl Outputs {
             mesh,
             render,
             stats: spec.stats.clone().map(|p| (p, Vec::new())),
+            stats_fields: spec.stats_fields.clone(),
             progress,
             plain: !quiet && !terminal,
         })
@@ -147,7 +152,7 @@ impl Outputs {
         } else {
             Default::default()
         };
-        let line = serde_json::json!({
+        let mut line = serde_json::json!({
             "frame": frame,
             "time": skin.time(),
             "substeps": stats.substeps,
@@ -161,6 +166,9 @@ impl Outputs {
             "clean": check.is_clean(),
             "milliseconds": ms,
         });
+        if let Some(fields) = line.as_object_mut() {
+            fields.extend(self.stats_fields.clone());
+        }
         if let Some((path, lines)) = &mut self.stats {
             lines.extend_from_slice(line.to_string().as_bytes());
             lines.push(b'\n');
