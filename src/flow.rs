@@ -22,6 +22,12 @@ impl<F: Flow + ?Sized> Flow for &F {
     }
 }
 
+impl<F: Flow + ?Sized + Send> Flow for std::sync::Arc<F> {
+    fn velocity(&self, p: Vec3) -> Vec3 {
+        (**self).velocity(p)
+    }
+}
+
 /// A rigid motion: translation at `linear`, rotation at `angular` (radians per second,
 /// about its axis, right-handed) around `center`.
 #[derive(Debug, Clone, Copy, PartialEq)]

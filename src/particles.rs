@@ -23,6 +23,9 @@ pub struct Particles {
     pub positions: Vec<Vec3>,
     /// Per-particle radius, when the file has one.
     pub radii: Option<Vec<f32>>,
+    /// Per-particle velocity (PLY `vx vy vz` or `velocity_x velocity_y velocity_z`), in
+    /// the file's units, when it has one.
+    pub velocities: Option<Vec<Vec3>>,
 }
 
 /// A particle file format read from bytes.
@@ -81,6 +84,11 @@ fn check(particles: Particles) -> Result<Particles, String> {
     if let Some(i) = particles.positions.iter().position(|p| !p.is_finite()) {
         return Err(format!("particle {i} has a NaN or infinite coordinate"));
     }
+    if let Some(v) = &particles.velocities {
+        if let Some(i) = v.iter().position(|v| !v.is_finite()) {
+            return Err(format!("particle {i} has a velocity that is not finite"));
+        }
+    }
     if let Some(radii) = &particles.radii {
         if let Some(i) = radii.iter().position(|r| !(r.is_finite() && *r > 0.0)) {
             return Err(format!(
@@ -121,6 +129,7 @@ fn read_vdb(path: &Path) -> Result<Particles, crate::vdb::VdbError> {
             .map(|p| Vec3::new(p[0], p[1], p[2]))
             .collect(),
         radii: points.has_radius.then_some(points.radii),
+        velocities: None,
     })
 }
 
@@ -164,6 +173,7 @@ fn read_text(bytes: &[u8]) -> Result<Particles, String> {
     Ok(Particles {
         positions,
         radii: (!radii.is_empty()).then_some(radii),
+        velocities: None,
     })
 }
 
@@ -263,16 +273,28 @@ fn read_ply(bytes: &[u8]) -> Result<Particles, String> {
         _ => return Err("vertex element lacks x, y or z".into()),
     };
     let radius = column(&["radius", "pscale", "r"]);
+    let velocity = match (
+        column(&["vx", "velocity_x"]),
+        column(&["vy", "velocity_y"]),
+        column(&["vz", "velocity_z"]),
+    ) {
+        (Some(a), Some(b), Some(c)) => Some((a, b, c)),
+        _ => None,
+    };
     let data = &bytes[body.min(bytes.len())..];
     // The header's count is only a claim (found by cargo fuzz: 4.6 trillion vertices asked
     // for a 200-byte file): reserve no more rows than the bytes could hold.
     let capacity = (*count).min(data.len());
     let mut positions = Vec::with_capacity(capacity);
     let mut radii = radius.map(|_| Vec::with_capacity(capacity));
+    let mut velocities = velocity.map(|_| Vec::with_capacity(capacity));
     let mut push = |row: &[f64]| {
         positions.push(Vec3::new(row[x] as f32, row[y] as f32, row[z] as f32));
         if let (Some(r), Some(radii)) = (radius, radii.as_mut()) {
             radii.push(row[r] as f32);
+        }
+        if let (Some((a, b, c)), Some(v)) = (velocity, velocities.as_mut()) {
+            v.push(Vec3::new(row[a] as f32, row[b] as f32, row[c] as f32));
         }
     };
     match format {
@@ -323,7 +345,11 @@ fn read_ply(bytes: &[u8]) -> Result<Particles, String> {
             }
         }
     }
-    Ok(Particles { positions, radii })
+    Ok(Particles {
+        positions,
+        radii,
+        velocities,
+    })
 }
 
 /// One binary PLY scalar as f64.
@@ -353,6 +379,33 @@ fn scalar(ty: &str, raw: &[u8], little: bool) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ply_velocities_are_read_by_either_name_and_must_be_finite() {
+        for names in [
+            ["vx", "vy", "vz"],
+            ["velocity_x", "velocity_y", "velocity_z"],
+        ] {
+            let ply = format!(
+                "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nproperty float {}\nproperty float {}\nproperty float {}\nend_header\n0 0 0 1 2 3\n1 1 1 -4 5 -6\n",
+                names[0], names[1], names[2]
+            );
+            let p = parse(ply.as_bytes(), Format::Ply).unwrap();
+            assert_eq!(
+                p.velocities,
+                Some(vec![Vec3::new(1.0, 2.0, 3.0), Vec3::new(-4.0, 5.0, -6.0)])
+            );
+        }
+        let nan = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty float vx\nproperty float vy\nproperty float vz\nend_header\n0 0 0 nan 0 0\n";
+        let err = parse(nan.as_bytes(), Format::Ply).unwrap_err();
+        assert!(err.contains("velocity"), "{err}");
+        // Without them: none.
+        let plain = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n";
+        assert_eq!(
+            parse(plain.as_bytes(), Format::Ply).unwrap().velocities,
+            None
+        );
+    }
 
     #[test]
     fn ascii_and_binary_ply_and_text_agree() {

@@ -53,6 +53,15 @@ impl<T: Target + ?Sized> Target for &T {
     }
 }
 
+impl<T: Target + ?Sized + Send> Target for std::sync::Arc<T> {
+    fn distance(&self, p: Vec3) -> f32 {
+        (**self).distance(p)
+    }
+    fn bounds(&self) -> Aabb {
+        (**self).bounds()
+    }
+}
+
 impl<T: Target + ?Sized> Target for Box<T> {
     fn distance(&self, p: Vec3) -> f32 {
         (**self).distance(p)

@@ -3,7 +3,10 @@
 
 use activeskin::frames::{FrameError, FrameInput, ParticleInput};
 use activeskin::skin::AnySkin;
-use activeskin::target::{iso_for_radius, Target};
+use std::sync::Arc;
+
+use activeskin::flow::Flow;
+use activeskin::target::{iso_for_radius, Density};
 use anyhow::Context;
 
 use super::args::{OutputArgs, PhysicsArgs};
@@ -34,6 +37,12 @@ pub struct ParticlesArgs {
     /// Inclusive frame range (default: every frame the pattern finds).
     #[arg(long)]
     frames: Option<String>,
+    /// Ignore the particles' velocities (PLY vx vy vz): follow by attraction alone.
+    #[arg(long)]
+    no_velocity: bool,
+    /// Multiplies the particles' velocities into world units per second.
+    #[arg(long, default_value_t = 1.0)]
+    velocity_scale: f32,
     #[command(flatten)]
     physics: PhysicsArgs,
     #[command(flatten)]
@@ -69,10 +78,17 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
         iso,
         density_out,
         dx: params.dx,
+        velocity_scale: (!args.no_velocity).then_some(args.velocity_scale),
     };
+    if !args.velocity_scale.is_finite() {
+        usage!(
+            "--velocity-scale must be a number, got {}",
+            args.velocity_scale
+        );
+    }
     // Each frame is read once: its density is the skin's target and, with
     // --density-out, written as a fog volume on the way.
-    let target_at = |frame: i64| -> Result<Box<dyn Target>, FrameError> {
+    let target_at = |frame: i64| -> Result<Arc<Density>, FrameError> {
         let path = input.pattern.path(frame);
         if input.existing.binary_search(&frame).is_err() {
             return Err(FrameError::Data(format!(
@@ -80,16 +96,21 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
                 path.display()
             )));
         }
-        Ok(Box::new(particles.target(&path, frame)?))
+        Ok(Arc::new(particles.target(&path, frame)?))
     };
     let range = input.range;
     let first = target_at(range.0)?;
     let skin = AnySkin::new(&*first, params);
     drop(first);
     run_frames(range, skin, args.physics.fps, &args.outputs, |frame| {
+        let density = target_at(frame)?;
+        // Particles that carry velocities carry the skin (§7).
+        let flow = density
+            .has_velocities()
+            .then(|| Box::new(density.clone()) as Box<dyn Flow>);
         Ok(FrameInput {
-            target: target_at(frame)?,
-            flow: None,
+            target: Box::new(density),
+            flow,
             seed: true,
         })
     })

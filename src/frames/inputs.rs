@@ -128,10 +128,14 @@ pub struct ParticleInput {
     pub density_out: Option<FramePattern>,
     /// Voxel size of the fog volumes written.
     pub dx: f32,
+    /// Multiplies the particles' velocities into world units per second; `None` ignores
+    /// them.
+    pub velocity_scale: Option<f32>,
 }
 
 impl ParticleInput {
-    /// Reads the particles of `frame` from `path` (once) and builds their density.
+    /// Reads the particles of `frame` from `path` (once) and builds their density, with
+    /// their velocities when the file has them and they are not ignored.
     pub fn target(&self, path: &Path, frame: i64) -> Result<Density, FrameError> {
         let cloud = particles::read(path)?;
         if cloud.positions.is_empty() {
@@ -146,6 +150,13 @@ impl ParticleInput {
                 Density::with_supports(cloud.positions, supports, self.iso)
             }
             _ => Density::new(cloud.positions, 2.0 * self.radius, self.iso),
+        };
+        let density = match (cloud.velocities, self.velocity_scale) {
+            (Some(v), Some(k)) => {
+                let scaled: Vec<Vec3> = v.iter().map(|&u| u * k).collect();
+                density.with_velocities(&scaled)
+            }
+            _ => density,
         };
         if let Some(out) = &self.density_out {
             let fog = Grid::from_data(&density.to_fog_volume(self.dx))?;

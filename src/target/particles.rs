@@ -11,6 +11,7 @@ use crate::grid::offset_coords;
 use crate::volume::{GridClass, GridData, Transform, LEAF_VOXELS, MASK_WORDS};
 
 use super::{Aabb, Target};
+use crate::flow::Flow;
 
 /// The kernel, 1 at the particle and 0 from distance h on, smooth at both ends.
 #[inline]
@@ -33,6 +34,10 @@ pub struct Density {
     particles: Vec<(Vec3, f32)>,
     /// Each cell's run in `particles`.
     cells: HashMap<IVec3, (u32, u32)>,
+    /// Input index of each particle, in `particles`' order.
+    order: Vec<u32>,
+    /// Each particle's velocity, in `particles`' order (empty when unknown).
+    velocities: Vec<Vec3>,
     /// The largest support: the cell size.
     h: f32,
     iso: f32,
@@ -78,12 +83,31 @@ impl Density {
             }
         }
         Density {
+            order: particles.iter().map(|&(.., i)| i).collect(),
+            velocities: Vec::new(),
             particles: particles.into_iter().map(|(_, p, k, _)| (p, k)).collect(),
             cells,
             h,
             iso,
             bounds: bounds.padded(h),
         }
+    }
+
+    /// Gives the particles their velocities (in input order), which makes the density a
+    /// [`Flow`] too.
+    pub fn with_velocities(mut self, velocities: &[Vec3]) -> Self {
+        assert_eq!(
+            velocities.len(),
+            self.order.len(),
+            "one velocity per particle"
+        );
+        self.velocities = self.order.iter().map(|&i| velocities[i as usize]).collect();
+        self
+    }
+
+    /// Whether the particles carry velocities.
+    pub fn has_velocities(&self) -> bool {
+        !self.velocities.is_empty()
     }
 
     /// G at `p`.
@@ -157,6 +181,42 @@ impl Density {
             data.push_leaf(origin.to_array(), &values, mask);
         }
         data
+    }
+}
+
+/// The particles' velocity at a point: their kernel-weighted mean (Shepard), with the
+/// kernel stretched to twice each support so that it reaches the skin's whole band (the
+/// surface sits at about one support's half from the particles, the band three voxels
+/// past it); zero where no particle reaches, or when the particles carry no velocity.
+impl Flow for Density {
+    fn velocity(&self, p: Vec3) -> Vec3 {
+        if self.velocities.is_empty() {
+            return Vec3::ZERO;
+        }
+        let cell = (p / self.h).floor().as_ivec3();
+        let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
+        for n in 0..125 {
+            let d = IVec3::new(n / 25 - 2, (n / 5) % 5 - 2, n % 5 - 2);
+            if let Some(&(start, end)) = self.cells.get(&(cell + d)) {
+                let run = start as usize..end as usize;
+                for (&(q, inv_h2), &v) in self.particles[run.clone()]
+                    .iter()
+                    .zip(&self.velocities[run])
+                {
+                    let s = 1.0 - (p - q).length_squared() * inv_h2 * 0.25;
+                    if s > 0.0 {
+                        let w = s * s * s;
+                        sum += w * v;
+                        weight += w;
+                    }
+                }
+            }
+        }
+        if weight > 0.0 {
+            sum / weight
+        } else {
+            Vec3::ZERO
+        }
     }
 }
 
