@@ -440,6 +440,20 @@ pub fn write_vector_grid_file(path: &Path) -> Result<(), VdbError> {
         .map_err(|e| VdbError::file(path, e.what()))
 }
 
+/// The name and tree type (e.g. `Tree_vec3s_5_4_3`) of each grid of a file, from its
+/// descriptors alone (nothing is decoded: cheap enough to ask every frame).
+pub fn grid_types(path: &Path) -> Result<Vec<(String, String)>, VdbError> {
+    let layout = check_vdb_file(path)?;
+    if layout.has_offsets {
+        return Ok(layout.grids);
+    }
+    // Old files without a descriptor index: OpenVDB reads them to tell.
+    Ok(list_grids(path)?
+        .into_iter()
+        .map(|g| (g.name, g.value_type))
+        .collect())
+}
+
 /// The grids of a file, as `activeskin info` shows them.
 pub fn list_grids(path: &Path) -> Result<Vec<GridSummary>, VdbError> {
     let layout = check_vdb_file(path)?;

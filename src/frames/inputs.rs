@@ -209,12 +209,8 @@ impl VelocityInput {
             VelocitySource::Off => return Ok(None),
             VelocitySource::Named(name) => name.clone(),
             VelocitySource::Auto => {
-                let grids = vdb::list_grids(&path)?;
-                let vector = |n: &str| {
-                    grids
-                        .iter()
-                        .any(|g| g.name == n && g.value_type.starts_with("vec3"))
-                };
+                let grids = vdb::grid_types(&path)?;
+                let vector = |n: &str| grids.iter().any(|(g, t)| g == n && t.contains("vec3"));
                 match VELOCITY_NAMES.into_iter().find(|n| vector(n)) {
                     Some(n) => {
                         note(format!(
