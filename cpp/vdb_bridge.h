@@ -94,7 +94,8 @@ MorphTiming advect_rotation(FloatGrid &grid, double omega, double duration);
 uint64_t mem_usage(const FloatGrid &grid);
 PointBuffers read_points(rust::Str path, rust::Str name);
 void write_points(rust::Str path, rust::Slice<const float> positions,
-                  rust::Slice<const float> radii, double voxel_size, rust::Str name);
+                  rust::Slice<const float> radii, rust::Slice<const float> velocities,
+                  double voxel_size, rust::Str name);
 std::unique_ptr<FloatGrid> mesh_to_level_set(rust::Slice<const float> points,
                                              rust::Slice<const uint32_t> triangles,
                                              double voxel_size, float half_width);

@@ -58,6 +58,7 @@ PointBuffers read_points(rust::Str path, rust::Str name) {
   PointBuffers out;
   out.grid_name = grid_name;
   out.has_radius = false;
+  out.has_velocity = false;
   bool first = true;
   for (auto leaf = grid->tree().cbeginLeaf(); leaf; ++leaf) {
     const auto &descriptor = leaf->attributeSet().descriptor();
@@ -68,17 +69,28 @@ PointBuffers read_points(rust::Str path, rust::Str name) {
     const size_t pscale = descriptor.find("pscale");
     const bool has_radius = pscale != openvdb::points::AttributeSet::INVALID_POS &&
                             descriptor.valueType(pscale) == "float";
+    const size_t v = descriptor.find("v");
+    const bool has_velocity = v != openvdb::points::AttributeSet::INVALID_POS &&
+                              descriptor.valueType(v) == "vec3s";
     if (first) {
       out.has_radius = has_radius;
+      out.has_velocity = has_velocity;
       first = false;
     } else if (has_radius != out.has_radius) {
       throw openvdb::KeyError("grid '" + grid_name + "' has pscale on some leaves only");
+    } else if (has_velocity != out.has_velocity) {
+      throw openvdb::KeyError("grid '" + grid_name + "' has v on some leaves only");
     }
     openvdb::points::AttributeHandle<openvdb::Vec3f> position(leaf->constAttributeArray(p));
     std::unique_ptr<openvdb::points::AttributeHandle<float>> radius;
     if (has_radius) {
       radius = std::make_unique<openvdb::points::AttributeHandle<float>>(
           leaf->constAttributeArray(pscale));
+    }
+    std::unique_ptr<openvdb::points::AttributeHandle<openvdb::Vec3f>> velocity;
+    if (has_velocity) {
+      velocity = std::make_unique<openvdb::points::AttributeHandle<openvdb::Vec3f>>(
+          leaf->constAttributeArray(v));
     }
     for (auto voxel = leaf->cbeginValueAll(); voxel; ++voxel) {
       const openvdb::Vec3d ijk = voxel.getCoord().asVec3d();
@@ -88,6 +100,12 @@ PointBuffers read_points(rust::Str path, rust::Str name) {
         out.positions.push_back(static_cast<float>(world[1]));
         out.positions.push_back(static_cast<float>(world[2]));
         if (radius) out.radii.push_back(radius->get(*index));
+        if (velocity) {
+          const openvdb::Vec3f u = velocity->get(*index);
+          out.velocities.push_back(u[0]);
+          out.velocities.push_back(u[1]);
+          out.velocities.push_back(u[2]);
+        }
       }
     }
   }
@@ -95,7 +113,8 @@ PointBuffers read_points(rust::Str path, rust::Str name) {
 }
 
 void write_points(rust::Str path, rust::Slice<const float> positions,
-                  rust::Slice<const float> radii, double voxel_size, rust::Str name) {
+                  rust::Slice<const float> radii, rust::Slice<const float> velocities,
+                  double voxel_size, rust::Str name) {
   ensure_initialized();
   if (positions.size() % 3 != 0) {
     throw openvdb::ValueError("positions must hold whole points");
@@ -103,6 +122,9 @@ void write_points(rust::Str path, rust::Slice<const float> positions,
   const size_t n = positions.size() / 3;
   if (!radii.empty() && radii.size() != n) {
     throw openvdb::ValueError("one radius per point, or none");
+  }
+  if (!velocities.empty() && velocities.size() != 3 * n) {
+    throw openvdb::ValueError("one velocity per point, or none");
   }
   std::vector<openvdb::Vec3f> points(n);
   for (size_t i = 0; i < n; ++i) {
@@ -121,6 +143,15 @@ void write_points(rust::Str path, rust::Slice<const float> positions,
     openvdb::points::appendAttribute<float>(grid->tree(), "pscale");
     openvdb::points::populateAttribute(grid->tree(), index->tree(), "pscale",
                                        openvdb::points::PointAttributeVector<float>(r));
+  }
+  if (!velocities.empty()) {
+    std::vector<openvdb::Vec3f> u(n);
+    for (size_t i = 0; i < n; ++i) {
+      u[i] = openvdb::Vec3f(velocities[3 * i], velocities[3 * i + 1], velocities[3 * i + 2]);
+    }
+    openvdb::points::appendAttribute<openvdb::Vec3f>(grid->tree(), "v");
+    openvdb::points::populateAttribute(grid->tree(), index->tree(), "v",
+                                       openvdb::points::PointAttributeVector<openvdb::Vec3f>(u));
   }
   grid->setName(std::string(name));
   openvdb::io::File file{std::string(path)};

@@ -129,7 +129,13 @@ fn read_vdb(path: &Path) -> Result<Particles, crate::vdb::VdbError> {
             .map(|p| Vec3::new(p[0], p[1], p[2]))
             .collect(),
         radii: points.has_radius.then_some(points.radii),
-        velocities: None,
+        velocities: points.has_velocity.then(|| {
+            points
+                .velocities
+                .chunks_exact(3)
+                .map(|v| Vec3::new(v[0], v[1], v[2]))
+                .collect()
+        }),
     })
 }
 

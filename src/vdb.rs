@@ -418,12 +418,26 @@ pub fn write_points(
     voxel_size: f64,
     name: &str,
 ) -> Result<(), VdbError> {
+    write_points_with_velocities(path, positions, radii, None, voxel_size, name)
+}
+
+/// [`write_points`] with a `v` attribute (vec3s) when `velocities` is given.
+pub fn write_points_with_velocities(
+    path: &Path,
+    positions: &[[f32; 3]],
+    radii: Option<&[f32]>,
+    velocities: Option<&[[f32; 3]]>,
+    voxel_size: f64,
+    name: &str,
+) -> Result<(), VdbError> {
     let flat: Vec<f32> = positions.iter().flatten().copied().collect();
+    let velocities = velocities.map_or(&[][..], |v| v.as_flattened());
     crate::io::write_atomically(path, |tmp| {
         ffi::bridge::write_points(
             &tmp.to_string_lossy(),
             &flat,
             radii.unwrap_or(&[]),
+            velocities,
             voxel_size,
             name,
         )

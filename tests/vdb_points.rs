@@ -198,3 +198,69 @@ fn particles_use_their_own_pscale_unless_told_not_to() {
         assert!((size - 0.1).abs() < 0.025, "{uniform:?}");
     }
 }
+
+#[test]
+fn velocities_v_come_back_and_carry_the_skin() {
+    // Houdini's `v` point attribute: read exactly, in point order with the positions.
+    let dir = common::scratch();
+    let points = scattered(300, 7);
+    let velocities: Vec<[f32; 3]> = points.iter().map(|p| [p[1], -p[0], 0.25]).collect();
+    let path = dir.path().join("v.vdb");
+    vdb::write_points_with_velocities(&path, &points, None, Some(&velocities), 0.1, "points")
+        .unwrap();
+    let read = particles::read(&path).unwrap();
+    let got = read.velocities.expect("v read");
+    for (p, v) in read.positions.iter().zip(&got) {
+        // Each velocity is the one written for (within fixed point) this position.
+        let expected = Vec3::new(p.y, -p.x, 0.25);
+        assert!((*v - expected).length() < 2e-3, "{v} vs {expected}");
+    }
+
+    // A ball of points moving 4 voxels a frame, as VDB points with `v`: carried.
+    let (radius, dx) = (0.05f32, 0.025f32);
+    let speed = 4.0 * dx * 24.0;
+    let mut ball = Vec::new();
+    for i in -3i32..=3 {
+        for j in -3i32..=3 {
+            for k in -3i32..=3 {
+                let p = Vec3::new(i as f32, j as f32, k as f32) * 2.0 * radius;
+                if p.length() <= 0.3 {
+                    ball.push(p);
+                }
+            }
+        }
+    }
+    for frame in 1..=5 {
+        let shift = Vec3::X * speed * (frame - 1) as f32 / 24.0 + Vec3::splat(1.0);
+        let at: Vec<[f32; 3]> = ball.iter().map(|p| (*p + shift).to_array()).collect();
+        let v = vec![[speed, 0.0, 0.0]; at.len()];
+        let path = dir.path().join(format!("p.{frame:04}.vdb"));
+        vdb::write_points_with_velocities(&path, &at, None, Some(&v), 0.05, "points").unwrap();
+    }
+    let pattern = dir.path().join("p.####.vdb").to_string_lossy().into_owned();
+    let centre_x = |extra: &[&str]| {
+        let out = common::scratch();
+        let mesh = out.path().join("s.####.obj").to_string_lossy().into_owned();
+        let mut args = vec![
+            "particles",
+            "--particles",
+            &pattern,
+            "--radius",
+            "0.05",
+            "--mesh",
+            &mesh,
+            "-q",
+        ];
+        args.extend_from_slice(extra);
+        common::assert_ok(&activeskin(&args));
+        let mesh = common::read_mesh(&out.path().join("s.0005.obj")).unwrap();
+        mesh.positions.iter().map(|p| p.x).sum::<f32>() / mesh.positions.len() as f32
+    };
+    let expected = 1.0 + speed * 4.0 / 24.0;
+    let (carried, attracted) = (centre_x(&[]), centre_x(&["--no-velocity"]));
+    assert!(
+        (carried - expected).abs() < 0.5 * dx,
+        "{carried} vs {expected}"
+    );
+    assert!(expected - attracted > 2.0 * dx, "{attracted} vs {expected}");
+}

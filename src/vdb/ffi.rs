@@ -98,6 +98,9 @@ pub(crate) mod bridge {
         /// `pscale` per point when `has_radius`.
         radii: Vec<f32>,
         has_radius: bool,
+        /// `v` (x, y, z) per point when `has_velocity`.
+        velocities: Vec<f32>,
+        has_velocity: bool,
     }
 
     /// A vector grid (vec3s or vec3d) copied out leaf by leaf: 512 voxels × 3 components
@@ -225,6 +228,7 @@ pub(crate) mod bridge {
             path: &str,
             positions: &[f32],
             radii: &[f32],
+            velocities: &[f32],
             voxel_size: f64,
             name: &str,
         ) -> Result<()>;
