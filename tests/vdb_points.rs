@@ -161,6 +161,11 @@ fn particles_use_their_own_pscale_unless_told_not_to() {
             "0.1",
             "--voxel-size",
             "0.025",
+            // Lone particles: a kernel of two radii, its surface at W(1/2), a radius out.
+            "--smoothing-length",
+            "1",
+            "--iso",
+            "0.421875",
             "--alpha",
             "24",
             "--mesh",

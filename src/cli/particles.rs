@@ -6,7 +6,7 @@ use activeskin::skin::AnySkin;
 use std::sync::Arc;
 
 use activeskin::flow::Flow;
-use activeskin::target::{iso_for_radius, Density};
+use activeskin::target::{fluid_iso, DensityGrid, DEFAULT_SMOOTHING_LENGTH};
 use anyhow::Context;
 
 use super::args::{OutputArgs, PhysicsArgs};
@@ -19,16 +19,21 @@ pub struct ParticlesArgs {
     /// grids (the first in each file, as Houdini's VDB from Points writes), XYZ or CSV text.
     #[arg(long)]
     particles: String,
-    /// Particle radius: the surface of a lone particle sits this far from it. Particles
+    /// Particle radius: half the rest spacing of the simulation's particles. Particles
     /// with their own radius (PLY `radius`/`pscale`, VDB `pscale`) use theirs, unless
     /// --ignore-radii. Also sets the default voxel size, radius/2.
     #[arg(long)]
     radius: f32,
+    /// Half the kernel's support, in particle radii: the kernel reaches 2 × this × radius
+    /// (splashsurf's convention). Larger smooths more and costs more.
+    #[arg(long, default_value_t = DEFAULT_SMOOTHING_LENGTH)]
+    smoothing_length: f32,
     /// Use --radius for every particle, whatever radii the files hold.
     #[arg(long)]
     ignore_radii: bool,
-    /// Density of the surface (default: the one that puts a lone particle's surface at
-    /// --radius, with a kernel support of two radii).
+    /// Density of the surface, in kernel sums (W = (1 − q²)³) [default: the density at
+    /// the boundary of a fluid at rest, particles 2 radii apart, about 32π l³/315 for a
+    /// smoothing length l].
     #[arg(long)]
     iso: Option<f32>,
     /// Also write each frame's density as a VDB fog volume (grid `density`), same patterns.
@@ -53,9 +58,11 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     if !(args.radius.is_finite() && args.radius > 0.0) {
         usage!("--radius must be a positive number, got {}", args.radius);
     }
-    let iso = args
-        .iso
-        .unwrap_or_else(|| iso_for_radius(args.radius, 2.0 * args.radius));
+    let l = args.smoothing_length;
+    if !(l.is_finite() && l > 0.0) {
+        usage!("--smoothing-length must be a positive number, got {l}");
+    }
+    let iso = args.iso.unwrap_or_else(|| fluid_iso(l));
     if !(iso.is_finite() && iso > 0.0) {
         usage!("--iso must be a positive number, got {iso}");
     }
@@ -75,6 +82,7 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     let particles = ParticleInput {
         radius: args.radius,
         ignore_radii: args.ignore_radii,
+        smoothing_length: l,
         iso,
         density_out,
         dx: params.dx,
@@ -88,7 +96,7 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     }
     // Each frame is read once: its density is the skin's target and, with
     // --density-out, written as a fog volume on the way.
-    let target_at = |frame: i64| -> Result<Arc<Density>, FrameError> {
+    let target_at = |frame: i64| -> Result<DensityGrid, FrameError> {
         let path = input.pattern.path(frame);
         if input.existing.binary_search(&frame).is_err() {
             return Err(FrameError::Data(format!(
@@ -96,14 +104,21 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
                 path.display()
             )));
         }
-        Ok(Arc::new(particles.target(&path, frame)?))
+        particles.target(&path, frame)
     };
     let range = input.range;
-    let first = target_at(range.0)?;
-    let skin = AnySkin::new(&*first, params);
-    drop(first);
+    // The skin starts on the first frame's density, one solid: the small voids of a
+    // density whose kernel barely spans the spacing would each become a skin to remove.
+    let mut first = target_at(range.0)?;
+    first.fill_voids(particles.void_volume());
+    let skin = AnySkin::new(&first, params);
+    // The loop asks for the first frame once more, for its velocity.
+    let mut first = Some(Arc::new(first));
     run_frames(range, skin, args.physics.fps, &args.outputs, |frame| {
-        let density = target_at(frame)?;
+        let density = match first.take() {
+            Some(grid) if frame == range.0 => grid,
+            _ => Arc::new(target_at(frame)?),
+        };
         // Particles that carry velocities carry the skin (§7).
         let flow = density
             .has_velocities()

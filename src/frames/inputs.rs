@@ -9,7 +9,7 @@ use crate::flow::scale::{self, ScaleFit};
 use crate::flow::{GridFlow, Mean};
 use crate::particles;
 use crate::sequence::FramePattern;
-use crate::target::{Density, FogTarget, LevelSetTarget, Target};
+use crate::target::{Density, DensityGrid, FogTarget, LevelSetTarget, Target};
 use crate::vdb::{self, Grid, WriteOptions};
 use crate::volume::{GridClass, GridData};
 
@@ -120,13 +120,16 @@ pub fn check_usable(path: &Path, data: &GridData) -> Result<(), FrameError> {
 }
 
 /// How particle frames become targets (§6.1): the density of particles of `radius` (or
-/// their own radii), its surface at `iso`; written as a fog volume when `density_out`.
+/// their own radii) with supports of 2·`smoothing_length` radii, its surface at `iso`,
+/// rasterized on the skin's voxels; written as a fog volume when `density_out`.
 pub struct ParticleInput {
     pub radius: f32,
     pub ignore_radii: bool,
+    /// Half the kernel's support, in particle radii.
+    pub smoothing_length: f32,
     pub iso: f32,
     pub density_out: Option<FramePattern>,
-    /// Voxel size of the fog volumes written.
+    /// The skin's voxel size, on whose nodes the density is rasterized.
     pub dx: f32,
     /// Multiplies the particles' velocities into world units per second; `None` ignores
     /// them.
@@ -136,7 +139,7 @@ pub struct ParticleInput {
 impl ParticleInput {
     /// Reads the particles of `frame` from `path` (once) and builds their density, with
     /// their velocities when the file has them and they are not ignored.
-    pub fn target(&self, path: &Path, frame: i64) -> Result<Density, FrameError> {
+    pub fn target(&self, path: &Path, frame: i64) -> Result<DensityGrid, FrameError> {
         let cloud = particles::read(path)?;
         if cloud.positions.is_empty() {
             return Err(FrameError::Data(format!(
@@ -144,12 +147,13 @@ impl ParticleInput {
                 path.display()
             )));
         }
+        let support = 2.0 * self.smoothing_length;
         let density = match cloud.radii {
             Some(radii) if !self.ignore_radii => {
-                let supports = radii.iter().map(|r| 2.0 * r).collect();
+                let supports = radii.iter().map(|r| support * r).collect();
                 Density::with_supports(cloud.positions, supports, self.iso)
             }
-            _ => Density::new(cloud.positions, 2.0 * self.radius, self.iso),
+            _ => Density::new(cloud.positions, support * self.radius, self.iso),
         };
         let density = match (cloud.velocities, self.velocity_scale) {
             (Some(v), Some(k)) => {
@@ -158,12 +162,20 @@ impl ParticleInput {
             }
             _ => density,
         };
+        let grid = DensityGrid::rasterize(&density, self.dx);
         if let Some(out) = &self.density_out {
-            let fog = Grid::from_data(&density.to_fog_volume(self.dx))?;
+            let fog = Grid::from_data(&grid.to_fog_volume())?;
             let meta = vdb::frame_metadata(frame);
             vdb::write_grids(&out.path(frame), &[(&fog, WriteOptions::default())], &meta)?;
         }
-        Ok(density)
+        Ok(grid)
+    }
+
+    /// The volume below which an enclosed void of the density is filled when a skin
+    /// starts on it ([`DensityGrid::fill_voids`]): a ball of the kernel's support.
+    pub fn void_volume(&self) -> f32 {
+        let h = 2.0 * self.smoothing_length * self.radius;
+        4.0 / 3.0 * std::f32::consts::PI * h.powi(3)
     }
 }
 

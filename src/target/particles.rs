@@ -13,6 +13,9 @@ use crate::volume::{GridClass, GridData, Transform, LEAF_VOXELS, MASK_WORDS};
 use super::{Aabb, Target};
 use crate::flow::Flow;
 
+mod raster;
+pub use raster::DensityGrid;
+
 /// The kernel, 1 at the particle and 0 from distance h on, smooth at both ends.
 #[inline]
 pub fn kernel(q: f32) -> f32 {
@@ -24,9 +27,43 @@ pub fn kernel(q: f32) -> f32 {
     }
 }
 
+/// Half the kernel's support in particle radii, by default: the support spans two rest
+/// spacings (about 33 neighbours), as splashsurf's `-l 2`.
+pub const DEFAULT_SMOOTHING_LENGTH: f32 = 2.0;
+
 /// The iso value that puts the surface of a lone particle at `radius` with support `h`.
 pub fn iso_for_radius(radius: f32, h: f32) -> f32 {
     kernel(radius / h)
+}
+
+/// The iso value that puts the surface of a fluid at rest — particles of radius r on a
+/// lattice of spacing 2r, support h = 2·`smoothing_length`·r — on the fluid's boundary,
+/// r past its outer layer of particles: the density there, averaged over the boundary
+/// plane of a half-space of such particles. About half the inside density 64π l³/315 (a
+/// continuum's boundary has exactly half); the same for every r.
+pub fn fluid_iso(smoothing_length: f32) -> f32 {
+    // r = 1: spacing 2, boundary plane z = 0, layers at z = −1, −3, …
+    let h = 2.0 * smoothing_length;
+    let inv_h2 = 1.0 / (h * h);
+    let n = (0.5 * h).ceil() as i32 + 1;
+    let samples = 16;
+    let mut sum = 0.0f64;
+    for a in 0..samples {
+        for b in 0..samples {
+            let x = (a as f32 + 0.5) * 2.0 / samples as f32;
+            let y = (b as f32 + 0.5) * 2.0 / samples as f32;
+            for i in -n..=n + 1 {
+                for j in -n..=n + 1 {
+                    for k in 0..=n {
+                        let r =
+                            Vec3::new(x - 2.0 * i as f32, y - 2.0 * j as f32, 1.0 + 2.0 * k as f32);
+                        sum += f64::from(kernel((r.length_squared() * inv_h2).sqrt()));
+                    }
+                }
+            }
+        }
+    }
+    (sum / f64::from(samples * samples)) as f32
 }
 
 pub struct Density {
@@ -210,6 +247,26 @@ impl Flow for Density {
                         weight += w;
                     }
                 }
+            }
+        }
+        if weight > 0.0 {
+            sum / weight
+        } else {
+            Vec3::ZERO
+        }
+    }
+}
+
+#[cfg(test)]
+impl Density {
+    /// The Shepard mean of the velocities with the density's own kernel, summed exactly.
+    pub(crate) fn velocity_same_kernel(&self, p: Vec3) -> Vec3 {
+        let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
+        for ((q, inv_h2), v) in self.particles.iter().zip(&self.velocities) {
+            let s = 1.0 - (p - *q).length_squared() * inv_h2;
+            if s > 0.0 {
+                sum += s * s * s * *v;
+                weight += s * s * s;
             }
         }
         if weight > 0.0 {
