@@ -1,5 +1,5 @@
 //! Indexed triangle meshes: measures (area, enclosed volume, Euler characteristic,
-//! components), topology checks, and OBJ / binary PLY writers.
+//! components), topology checks, OBJ / binary PLY writers and an OBJ reader.
 
 use std::io::Write;
 use std::path::Path;
@@ -23,7 +23,7 @@ pub struct Mesh {
     pub triangles: Vec<[u32; 3]>,
 }
 
-/// Why a mesh could not be written.
+/// Why a mesh could not be written or read.
 #[derive(Debug, thiserror::Error)]
 #[error("{}: {message}", path.display())]
 pub struct MeshError {
@@ -136,6 +136,52 @@ impl Mesh {
         })
     }
 
+    /// A Wavefront OBJ's vertices and faces (other records skipped; polygons fanned into
+    /// triangles), as other tools write them; no normals.
+    pub fn read_obj(path: &Path) -> Result<Mesh, MeshError> {
+        let error = |message: String| MeshError {
+            path: path.to_path_buf(),
+            message,
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| error(e.to_string()))?;
+        let mut mesh = Mesh::default();
+        for (number, line) in text.lines().enumerate() {
+            let bad = || error(format!("line {}: cannot read '{line}'", number + 1));
+            let mut words = line.split_whitespace();
+            match words.next() {
+                Some("v") => {
+                    let v: Vec<f32> = words
+                        .take(3)
+                        .map(|w| w.parse().map_err(|_| bad()))
+                        .collect::<Result<_, _>>()?;
+                    if v.len() < 3 {
+                        return Err(bad());
+                    }
+                    mesh.positions.push(Vec3::new(v[0], v[1], v[2]));
+                }
+                Some("f") => {
+                    let face: Vec<u32> = words
+                        .map(|w| {
+                            let i: u32 = w.split('/').next()?.parse().ok()?;
+                            (1..=mesh.positions.len() as u32)
+                                .contains(&i)
+                                .then(|| i - 1)
+                        })
+                        .collect::<Option<_>>()
+                        .ok_or_else(bad)?;
+                    if face.len() < 3 {
+                        return Err(bad());
+                    }
+                    for k in 1..face.len() - 1 {
+                        mesh.triangles.push([face[0], face[k], face[k + 1]]);
+                    }
+                }
+                _ => {}
+            }
+        }
+        Ok(mesh)
+    }
+
     /// Binary little-endian PLY with normals.
     pub fn write_ply(&self, path: &Path) -> Result<(), MeshError> {
         self.write_with(path, |w| {
@@ -197,5 +243,36 @@ impl Mesh {
             path: path.into(),
             message,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn obj_round_trips_and_bad_records_are_errors() {
+        let dir = std::env::temp_dir().join(format!("activeskin-obj-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mesh = Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(0.25, 0.5, 1.0)],
+            normals: vec![Vec3::Z; 4],
+            triangles: vec![[0, 1, 2], [0, 3, 1]],
+        };
+        let path = dir.join("m.obj");
+        mesh.write_obj(&path).unwrap();
+        let back = Mesh::read_obj(&path).unwrap();
+        assert_eq!(back.positions, mesh.positions);
+        assert_eq!(back.triangles, mesh.triangles);
+        // A quad is fanned; an index past the vertices is an error naming the line.
+        std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
+        assert_eq!(
+            Mesh::read_obj(&path).unwrap().triangles,
+            vec![[0, 1, 2], [0, 2, 3]]
+        );
+        std::fs::write(&path, "v 0 0 0\nv 1 0 0\nf 1 2 5\n").unwrap();
+        let e = Mesh::read_obj(&path).unwrap_err().to_string();
+        assert!(e.contains("line 3"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -1,6 +1,8 @@
 //! `activeskin bench [--json]`: ours and OpenVDB in one process, on the same input, as
 //! ratios (these machines are too noisy for absolute times to compare across runs).
 
+mod particles;
+
 use std::time::Instant;
 
 use activeskin::grid::Fixed16;
@@ -8,7 +10,7 @@ use activeskin::grid::SparseGrid;
 use activeskin::mesh::Mesh;
 use activeskin::polygonize::{Crossings, IndexToWorld, Polygonizer};
 use activeskin::skin::{Skin, SkinParams, SpeedParams};
-use activeskin::target::{iso_for_radius, sample, Blobs, Density, Sphere, Target, Torus, Union};
+use activeskin::target::{sample, Blobs, Sphere, Target, Torus, Union};
 use activeskin::validate;
 use activeskin::vdb::Grid;
 use glam::Vec3;
@@ -22,9 +24,14 @@ pub struct BenchArgs {
     /// Also run the largest scaling case (n = 1024: a sphere of radius 256 voxels).
     #[arg(long)]
     full: bool,
-    /// Also time particle skinning: 100 k and 1 M particles, ms per frame.
+    /// Also race splashsurf on particles: 100 k and 1 M particles, ms per frame; distance
+    /// to the true surface and flicker on a fluid at rest. splashsurf is installed into
+    /// the cache folder with cargo when not found.
     #[arg(long)]
     particles: bool,
+    /// The splashsurf binary to race (default: on the PATH, or in ~/.cache/activeskin).
+    #[arg(long, requires = "particles")]
+    splashsurf: Option<std::path::PathBuf>,
     /// Seconds each side of the morph-to-accuracy race may run before it is called.
     #[arg(long, default_value_t = 30.0)]
     race_cap: f64,
@@ -264,17 +271,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     ));
 
     if args.particles {
-        let mut rows = Vec::new();
-        for n in [100_000usize, 1_000_000] {
-            let (ms, band) = particle_frame_ms(n);
-            lines.push(format!(
-                "particles, {n:>9} jittered in a ball   {ms:.0} ms/frame, {:.2} M particles/s, {:.2} M band nodes",
-                n as f64 / ms * 1e-3,
-                band / 1e6
-            ));
-            rows.push(json!({"particles": n, "ms_per_frame": ms, "particles_per_s": n as f64 / ms * 1e3, "band_nodes": band}));
-        }
-        report.insert("particles".into(), json!(rows));
+        particles::run(args.splashsurf.as_deref(), &mut lines, &mut report)?;
     }
 
     if args.json {
@@ -442,52 +439,6 @@ fn race(
         }
     }
     Ok(Race { ours, openvdb })
-}
-
-/// Milliseconds per frame (neighbour grid built, skin advanced 1/24 s) for `n` particles
-/// on a jittered lattice of spacing R filling a ball, voxel R/2; and the band's size.
-fn particle_frame_ms(n: usize) -> (f64, f64) {
-    let spacing = 0.01f32;
-    let radius = spacing * (3.0 * n as f32 / (4.0 * std::f32::consts::PI)).cbrt();
-    let k = (radius / spacing).ceil() as i32;
-    let mut state = 7u64;
-    let mut jitter = move || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 0.3 * spacing
-    };
-    let lattice: Vec<Vec3> = (-k..=k)
-        .flat_map(|x| {
-            (-k..=k).flat_map(move |y| {
-                (-k..=k).map(move |z| Vec3::new(x as f32, y as f32, z as f32) * spacing)
-            })
-        })
-        .filter(|p| p.length() <= radius)
-        .collect();
-    let h = 2.0 * spacing;
-    let iso = iso_for_radius(spacing, h);
-    let mut jittered = || -> Vec<Vec3> {
-        lattice
-            .iter()
-            .map(|&p| p + Vec3::new(jitter(), jitter(), jitter()))
-            .collect()
-    };
-    let mut skin: Skin<f32> = Skin::new(&Density::new(jittered(), h, iso), params(0.5 * spacing));
-    let frames = 3;
-    let mut seconds = 0.0;
-    for _ in 0..frames {
-        // Each frame: the jitter (untimed), then the neighbour grid and the skin (timed).
-        let points = jittered();
-        let clock = Instant::now();
-        let target = Density::new(points, h, iso);
-        skin.advance(&target, 1.0 / 24.0);
-        seconds += clock.elapsed().as_secs_f64();
-    }
-    (
-        seconds / frames as f64 * 1e3,
-        skin.grid().active_node_count() as f64,
-    )
 }
 
 /// Least-squares slope of log(time) against log(n).

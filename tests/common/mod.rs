@@ -155,35 +155,13 @@ pub fn assert_clean_meshes(dir: &Path) -> usize {
 /// uchar-counted int faces); `None` for a file with no faces (a particle file).
 pub fn read_mesh(path: &Path) -> Option<Mesh> {
     let bytes = std::fs::read(path).unwrap();
-    let mut mesh = Mesh::default();
     if path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
     {
-        for line in String::from_utf8_lossy(&bytes).lines() {
-            let mut words = line.split_whitespace();
-            match words.next() {
-                Some("v") => {
-                    let v: Vec<f32> = words.map(|w| w.parse().unwrap()).collect();
-                    mesh.positions.push(Vec3::new(v[0], v[1], v[2]));
-                }
-                Some("f") => {
-                    let f: Vec<u32> = words
-                        .map(|w| w.split('/').next().unwrap().parse::<u32>().unwrap() - 1)
-                        .collect();
-                    assert_eq!(
-                        f.len(),
-                        3,
-                        "{}: a face that is not a triangle",
-                        path.display()
-                    );
-                    mesh.triangles.push([f[0], f[1], f[2]]);
-                }
-                _ => {}
-            }
-        }
-        return Some(mesh);
+        return Some(Mesh::read_obj(path).unwrap());
     }
+    let mut mesh = Mesh::default();
     let end = bytes.windows(11).position(|w| w == b"end_header\n")? + 11;
     let header = String::from_utf8_lossy(&bytes[..end]);
     let count = |key: &str| -> Option<usize> {
