@@ -132,6 +132,9 @@ pub fn run<'t>(
                 skin.advance_in_flow(&*input.target, flow, 1.0 / fps)
                     .substeps
             };
+            if input.seed {
+                skin.seed(&*input.target);
+            }
             previous = Some(input.flow);
             substeps
         };

@@ -9,7 +9,7 @@ mod vdb;
 use glam::Vec3;
 
 pub use particles::{
-    fluid_iso, iso_for_radius, kernel, Density, DensityGrid, DEFAULT_SMOOTHING_LENGTH,
+    fluid_iso, iso_for_radius, kernel, rest_density, Density, DensityGrid, DEFAULT_SMOOTHING_LENGTH,
 };
 pub use shapes::{Blobs, BoxShape, Skeleton, Sphere, Torus, Union};
 pub use vdb::{FogTarget, LevelSetTarget};

@@ -9,7 +9,7 @@ use crate::flow::scale::{self, ScaleFit};
 use crate::flow::{GridFlow, Mean};
 use crate::particles;
 use crate::sequence::FramePattern;
-use crate::target::{Density, DensityGrid, FogTarget, LevelSetTarget, Target};
+use crate::target::{rest_density, Density, DensityGrid, FogTarget, LevelSetTarget, Target};
 use crate::vdb::{self, Grid, WriteOptions};
 use crate::volume::{GridClass, GridData};
 
@@ -154,7 +154,8 @@ impl ParticleInput {
                 Density::with_supports(cloud.positions, supports, self.iso)
             }
             _ => Density::new(cloud.positions, support * self.radius, self.iso),
-        };
+        }
+        .normalized(rest_density(self.smoothing_length));
         let density = match (cloud.velocities, self.velocity_scale) {
             (Some(v), Some(k)) => {
                 let scaled: Vec<Vec3> = v.iter().map(|&u| u * k).collect();

@@ -104,6 +104,12 @@ impl<P: Potential> Skin<P> {
             }
         }
         crate::grid::tube::upkeep(&mut self.grid);
+        // The seeds hold the target's own distance estimate (first order for densities):
+        // made a distance like the rest of the band before anything reads or writes it.
+        for _ in 0..3 {
+            super::band::renormalize(&mut self.grid, w, 0.0, &mut self.rates);
+            crate::grid::tube::upkeep(&mut self.grid);
+        }
         self.polygonize();
         wanted.len()
     }

@@ -36,31 +36,62 @@ pub fn iso_for_radius(radius: f32, h: f32) -> f32 {
     kernel(radius / h)
 }
 
-/// The iso value that puts the surface of a fluid at rest — particles of radius r on a
-/// lattice of spacing 2r, support h = 2·`smoothing_length`·r — on the fluid's boundary,
-/// r past its outer layer of particles: the density there, averaged over the boundary
-/// plane of a half-space of such particles. About half the inside density 64π l³/315 (a
-/// continuum's boundary has exactly half); the same for every r.
-pub fn fluid_iso(smoothing_length: f32) -> f32 {
-    // r = 1: spacing 2, boundary plane z = 0, layers at z = −1, −3, …
+/// The density of a fluid at rest at one of its particles (itself included): particles
+/// of radius r on a lattice of spacing 2r, support 2·`smoothing_length`·r; the same for
+/// every r. [`Density::normalized`] divides each particle's kernel by its own density in
+/// units of this one.
+pub fn rest_density(smoothing_length: f32) -> f32 {
+    // A particle deep in the lattice.
+    half_space_density(smoothing_length, Vec3::new(0.0, 0.0, -2001.0), |_| 1.0)
+}
+
+/// Σ volume(k)·W at `at` over a half-space lattice (r = 1: spacing 2, layers k = 0, 1, …
+/// at z = −1, −3, …; a point deep inside sees the whole lattice).
+fn half_space_density(smoothing_length: f32, at: Vec3, volume: impl Fn(i32) -> f32) -> f32 {
     let h = 2.0 * smoothing_length;
     let inv_h2 = 1.0 / (h * h);
     let n = (0.5 * h).ceil() as i32 + 1;
+    let (ci, cj) = ((0.5 * at.x).round() as i32, (0.5 * at.y).round() as i32);
+    let ck = ((-at.z - 1.0) * 0.5).round() as i32;
+    let mut sum = 0.0f64;
+    for i in ci - n..=ci + n {
+        for j in cj - n..=cj + n {
+            for k in (ck - n).max(0)..=ck + n {
+                let q = Vec3::new(2.0 * i as f32, 2.0 * j as f32, -1.0 - 2.0 * k as f32);
+                let w = kernel(((at - q).length_squared() * inv_h2).sqrt());
+                sum += f64::from(volume(k) * w);
+            }
+        }
+    }
+    sum as f32
+}
+
+/// The iso value that puts the surface of a fluid at rest — particles of radius r on a
+/// lattice of spacing 2r, support 2·`smoothing_length`·r, [`Density::normalized`] — on
+/// the fluid's boundary, r past its outer layer of particles: the density there,
+/// averaged over the boundary plane of a half-space of such particles (each layer's
+/// particles normalized by their own density). About 0.6 of the rest density.
+pub fn fluid_iso(smoothing_length: f32) -> f32 {
+    let rest = rest_density(smoothing_length);
+    let layers = (smoothing_length.ceil() as i32 + 1) as usize;
+    let volumes: Vec<f32> = (0..=layers)
+        .map(|k| {
+            let at = Vec3::new(0.0, 0.0, -1.0 - 2.0 * k as f32);
+            rest / half_space_density(smoothing_length, at, |_| 1.0)
+        })
+        .collect();
     let samples = 16;
     let mut sum = 0.0f64;
     for a in 0..samples {
         for b in 0..samples {
             let x = (a as f32 + 0.5) * 2.0 / samples as f32;
             let y = (b as f32 + 0.5) * 2.0 / samples as f32;
-            for i in -n..=n + 1 {
-                for j in -n..=n + 1 {
-                    for k in 0..=n {
-                        let r =
-                            Vec3::new(x - 2.0 * i as f32, y - 2.0 * j as f32, 1.0 + 2.0 * k as f32);
-                        sum += f64::from(kernel((r.length_squared() * inv_h2).sqrt()));
-                    }
-                }
-            }
+            let volume = |k: i32| volumes.get(k as usize).copied().unwrap_or(1.0);
+            sum += f64::from(half_space_density(
+                smoothing_length,
+                Vec3::new(x, y, 0.0),
+                volume,
+            ));
         }
     }
     (sum / f64::from(samples * samples)) as f32
@@ -73,6 +104,9 @@ pub struct Density {
     cells: HashMap<IVec3, (u32, u32)>,
     /// Input index of each particle, in `particles`' order.
     order: Vec<u32>,
+    /// Each particle's kernel weight (1 unless [`Density::normalized`]), in `particles`'
+    /// order.
+    volumes: Vec<f32>,
     /// Each particle's velocity, in `particles`' order (empty when unknown).
     velocities: Vec<Vec3>,
     /// The largest support: the cell size.
@@ -122,6 +156,7 @@ impl Density {
         Density {
             order: particles.iter().map(|&(.., i)| i).collect(),
             velocities: Vec::new(),
+            volumes: vec![1.0; particles.len()],
             particles: particles.into_iter().map(|(_, p, k, _)| (p, k)).collect(),
             cells,
             h,
@@ -160,17 +195,64 @@ impl Density {
         for n in 0..27 {
             let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
             if let Some(&(start, end)) = self.cells.get(&(cell + d)) {
-                for &(q, inv_h2) in &self.particles[start as usize..end as usize] {
+                let run = start as usize..end as usize;
+                for (&(q, inv_h2), &v) in self.particles[run.clone()].iter().zip(&self.volumes[run])
+                {
                     let r = p - q;
                     let s = 1.0 - r.length_squared() * inv_h2;
                     if s > 0.0 {
-                        g += s * s * s;
-                        grad -= r * (6.0 * s * s * inv_h2);
+                        g += v * s * s * s;
+                        grad -= r * (6.0 * v * s * s * inv_h2);
                     }
                 }
             }
         }
         (g, grad)
+    }
+
+    /// Each particle's kernel divided by its own density in units of `rest` (SPH's volume
+    /// m/ρ_i, [`rest_density`]): in the bulk of a fluid at rest nothing changes, while
+    /// thin sheets and lone particles, whose own density is low, keep a surface (a lone
+    /// particle's at about 1.8 r for a smoothing length of 2 and the [`fluid_iso`]).
+    pub fn normalized(mut self, rest: f32) -> Self {
+        // Cell by cell, so that the 27 neighbour cells are looked up once per cell, not
+        // once per particle; each sum in the same order as `density`'s.
+        let cells: Vec<(IVec3, u32, u32)> =
+            self.cells.iter().map(|(&c, &(a, b))| (c, a, b)).collect();
+        let own: Vec<(u32, Vec<f32>)> = cells
+            .par_iter()
+            .map(|&(cell, start, end)| {
+                let runs: Vec<&[(Vec3, f32)]> = (0..27)
+                    .filter_map(|n| {
+                        let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
+                        let &(a, b) = self.cells.get(&(cell + d))?;
+                        Some(&self.particles[a as usize..b as usize])
+                    })
+                    .collect();
+                let sums = self.particles[start as usize..end as usize]
+                    .iter()
+                    .map(|&(p, _)| {
+                        let mut g = 0.0f32;
+                        for run in &runs {
+                            for &(q, inv_h2) in *run {
+                                let s = 1.0 - (p - q).length_squared() * inv_h2;
+                                if s > 0.0 {
+                                    g += s * s * s;
+                                }
+                            }
+                        }
+                        g
+                    })
+                    .collect();
+                (start, sums)
+            })
+            .collect();
+        for (start, sums) in own {
+            for (k, g) in sums.into_iter().enumerate() {
+                self.volumes[start as usize + k] = rest / g.max(1e-6);
+            }
+        }
+        self
     }
 }
 
@@ -221,10 +303,9 @@ impl Density {
     }
 }
 
-/// The particles' velocity at a point: their kernel-weighted mean (Shepard), with the
-/// kernel stretched to twice each support so that it reaches the skin's whole band (the
-/// surface sits at about one support's half from the particles, the band three voxels
-/// past it); zero where no particle reaches, or when the particles carry no velocity.
+/// The particles' velocity at a point: their mean weighted by their kernels (Shepard),
+/// the density's own; zero where no particle reaches, or when the particles carry no
+/// velocity.
 impl Flow for Density {
     fn velocity(&self, p: Vec3) -> Vec3 {
         if self.velocities.is_empty() {
@@ -232,41 +313,22 @@ impl Flow for Density {
         }
         let cell = (p / self.h).floor().as_ivec3();
         let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
-        for n in 0..125 {
-            let d = IVec3::new(n / 25 - 2, (n / 5) % 5 - 2, n % 5 - 2);
+        for n in 0..27 {
+            let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
             if let Some(&(start, end)) = self.cells.get(&(cell + d)) {
                 let run = start as usize..end as usize;
-                for (&(q, inv_h2), &v) in self.particles[run.clone()]
+                for ((&(q, inv_h2), &v), &volume) in self.particles[run.clone()]
                     .iter()
-                    .zip(&self.velocities[run])
+                    .zip(&self.velocities[run.clone()])
+                    .zip(&self.volumes[run])
                 {
-                    let s = 1.0 - (p - q).length_squared() * inv_h2 * 0.25;
+                    let s = 1.0 - (p - q).length_squared() * inv_h2;
                     if s > 0.0 {
-                        let w = s * s * s;
+                        let w = volume * s * s * s;
                         sum += w * v;
                         weight += w;
                     }
                 }
-            }
-        }
-        if weight > 0.0 {
-            sum / weight
-        } else {
-            Vec3::ZERO
-        }
-    }
-}
-
-#[cfg(test)]
-impl Density {
-    /// The Shepard mean of the velocities with the density's own kernel, summed exactly.
-    pub(crate) fn velocity_same_kernel(&self, p: Vec3) -> Vec3 {
-        let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
-        for ((q, inv_h2), v) in self.particles.iter().zip(&self.velocities) {
-            let s = 1.0 - (p - *q).length_squared() * inv_h2;
-            if s > 0.0 {
-                sum += s * s * s * *v;
-                weight += s * s * s;
             }
         }
         if weight > 0.0 {
