@@ -21,7 +21,7 @@ mod validate;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 #[derive(Parser)]
 #[command(
@@ -79,7 +79,13 @@ pub fn pattern_arg(spec: &str) -> anyhow::Result<activeskin::sequence::FramePatt
 
 /// Runs the command line; exit code 0 on success, 1 on bad data, 2 on bad usage.
 pub fn run() -> ExitCode {
-    let cli = Cli::parse();
+    // `--alpha -1` is a bad value, not an unknown option: it reaches the commands' own
+    // checks and their one-line usage errors.
+    let command = Cli::command().mut_subcommands(|c| c.allow_negative_numbers(true));
+    let cli = match Cli::from_arg_matches(&command.get_matches()) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
     let result = match cli.command {
         Command::Info { files } => info::run(&files),
         Command::Skin(args) => skin::run(&args),

@@ -20,16 +20,30 @@ pub enum PatternError {
 /// The widest padding a pattern may ask for: an i64 has 19 digits.
 pub const MAX_WIDTH: usize = 20;
 
-/// A file name with one frame-number field.
+/// A file name with one frame-number field, or one file held for every frame.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct FramePattern {
     prefix: String,
     suffix: String,
-    /// Minimum digits (zero-padded); 1 for an unpadded `$F`.
+    /// Minimum digits (zero-padded); 1 for an unpadded `$F`; 0 for one held file.
     width: usize,
 }
 
 impl FramePattern {
+    /// One file standing for every frame (a static target).
+    pub fn held(path: &str) -> Self {
+        FramePattern {
+            prefix: path.to_owned(),
+            suffix: String::new(),
+            width: 0,
+        }
+    }
+
+    /// Whether this is one file held for every frame.
+    pub fn is_held(&self) -> bool {
+        self.width == 0
+    }
+
     pub fn parse(pattern: &str) -> Result<Self, PatternError> {
         let fields = frame_fields(pattern);
         match fields.as_slice() {
@@ -50,6 +64,9 @@ impl FramePattern {
 
     /// The file of one frame. Negative frames keep their sign before the padding.
     pub fn path(&self, frame: i64) -> PathBuf {
+        if self.is_held() {
+            return PathBuf::from(&self.prefix);
+        }
         let width = self.width;
         let number = if frame < 0 {
             // unsigned_abs: -i64::MIN does not fit in an i64 (found by cargo fuzz).
@@ -62,6 +79,9 @@ impl FramePattern {
 
     /// The frame a file name stands for, if it matches the pattern.
     pub fn frame_of(&self, path: &str) -> Option<i64> {
+        if self.is_held() {
+            return None;
+        }
         let digits = path
             .strip_prefix(&self.prefix)?
             .strip_suffix(&self.suffix)?;

@@ -13,7 +13,7 @@ mod seed;
 pub mod speed;
 mod timestep;
 
-use glam::Vec3;
+use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::flow::{Backtracked, Flow};
@@ -116,9 +116,24 @@ impl<P: Potential> Skin<P> {
                 grid.touch(c);
             }
         }
-        band::fill(&mut grid, |ijk| {
-            start.distance(xf.apply(ijk.as_vec3())) / (w * dx)
-        });
+        band::start_consistently(&mut grid);
+        let value = |ijk: IVec3| start.distance(xf.apply(ijk.as_vec3())) / (w * dx);
+        band::fill(&mut grid, value);
+        // A start target steeper than a distance can put the skin between blocks it
+        // classified on either side: store them until every crossed cell is (a few rounds
+        // at most; none for a distance).
+        for _ in 0..4 {
+            let missing = band::unstored_crossed(&grid);
+            if missing.is_empty() {
+                break;
+            }
+            for c in missing {
+                grid.touch(c);
+            }
+            band::fill(&mut grid, value);
+        }
+        let mut scratch = Vec::new();
+        band::clamp_at_crossings(&mut grid, w, &mut scratch);
         crate::grid::tube::upkeep(&mut grid);
         grid.shrink_to_fit();
         let mut skin = Skin {

@@ -2,6 +2,8 @@
 //! imports targets from and exports skins to, and what the bridge ([`crate::vdb`], feature
 //! `vdb`) copies to and from OpenVDB with one copy of 512 values and 8 mask words per leaf.
 
+pub mod units;
+
 /// Voxels per leaf (8³), in OpenVDB's order: offset = (x & 7) << 6 | (y & 7) << 3 | (z & 7).
 pub const LEAF_VOXELS: usize = 512;
 /// Words of a leaf's active mask; bit `offset % 64` of word `offset / 64`.

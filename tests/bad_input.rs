@@ -192,6 +192,59 @@ fn bad_usage_exits_2() {
     }
 }
 
+#[test]
+fn negative_numbers_are_bad_values_in_one_line() {
+    // `--alpha -1`, as users type it: the same one-line usage error as `--alpha=-1`.
+    let dir = common::scratch();
+    write(&dir.path().join("t.0001.vdb"), &sphere(1.0 / 16.0));
+    let target = dir.path().join("t.####.vdb");
+    let target = target.to_str().unwrap();
+    let out = dir.path().join("o.####.vdb");
+    let out = out.to_str().unwrap();
+    let skin = |option: &'static str, value: &'static str| {
+        (
+            option,
+            vec!["skin", "--target", target, "--out", out, option, value],
+        )
+    };
+    let cases = [
+        skin("--alpha", "-1"),
+        skin("--beta", "-0.5"),
+        skin("--voxel-size", "-0.1"),
+        skin("--fps", "-24"),
+        (
+            "--radius",
+            vec![
+                "particles",
+                "--particles",
+                target,
+                "--out",
+                out,
+                "--radius",
+                "-1",
+            ],
+        ),
+        (
+            "--smoothing-length",
+            vec![
+                "particles",
+                "--particles",
+                target,
+                "--out",
+                out,
+                "--radius",
+                "0.1",
+                "--smoothing-length",
+                "-2",
+            ],
+        ),
+    ];
+    for (option, args) in cases {
+        common::assert_usage_error(&activeskin(&args), option);
+    }
+    assert!(common::names(&dir.path().join("o")).is_empty());
+}
+
 /// A full disk: a 160 KB tmpfs, a few frames' worth (when this machine lets the test
 /// mount one; it says so otherwise — the injected failing writer of `io.rs`'s unit tests
 /// covers the rest). OpenVDB itself reports success on a short write: found here.

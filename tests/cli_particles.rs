@@ -194,7 +194,8 @@ fn the_first_frame_starts_as_one_solid() {
 
 #[test]
 fn liquid_that_appears_mid_shot_is_skinned_on_its_first_frame() {
-    // An emitter starting at frame 3, far from the skin: the skin is seeded there at once.
+    // An emitter starting at frame 3, far from the skin: the skin is seeded there at once;
+    // a frame without particles is a frame without liquid.
     let dir = common::scratch();
     let ball = |centre: Vec3| -> Vec<Vec3> {
         let mut points = Vec::new();
@@ -210,10 +211,14 @@ fn liquid_that_appears_mid_shot_is_skinned_on_its_first_frame() {
         }
         points
     };
-    for frame in 1..=4 {
+    for frame in 1..=6 {
         let mut points = ball(Vec3::ZERO);
         if frame >= 3 {
             points.extend(ball(Vec3::X));
+        }
+        // A frame with no particles at all: no liquid, written empty.
+        if frame == 6 {
+            points.clear();
         }
         write_ply(&dir.path().join(format!("e.{frame:04}.ply")), &points);
     }
@@ -240,16 +245,16 @@ fn liquid_that_appears_mid_shot_is_skinned_on_its_first_frame() {
         .iter()
         .map(|l| l["components"].as_u64().unwrap())
         .collect();
-    assert_eq!(components, [1, 1, 2, 2]);
+    assert_eq!(&components[..5], [1, 1, 2, 2, 2]);
+    assert!(dir.path().join("e.0006.obj").is_file());
 }
 
 #[test]
 fn broken_particle_frames_are_one_line_errors() {
     let dir = common::scratch();
     let points = cloud();
-    let cases: [(&str, &[u8]); 3] = [
+    let cases: [(&str, &[u8]); 2] = [
         ("truncated", b"ply\nformat binary_little_endian 1.0\nelement vertex 9\nproperty float x\nproperty float y\nproperty float z\nend_header\n\0\0\0\0"),
-        ("empty", b"ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\nend_header\n"),
         ("nan", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\nnan 0 0\n"),
     ];
     for (what, bytes) in cases {

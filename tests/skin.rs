@@ -369,3 +369,32 @@ fn exported_level_set_is_within_a_tenth_of_a_voxel_of_the_true_distance() {
         "{mesh_mean} {mesh_max}"
     );
 }
+
+/// A target whose "distance" grows `k` times too fast, as a level set in other units read
+/// as world distances.
+struct Steep<T>(T, f32);
+
+impl<T: Target> Target for Steep<T> {
+    fn distance(&self, p: Vec3) -> f32 {
+        self.0.distance(p) * self.1
+    }
+    fn bounds(&self) -> activeskin::target::Aabb {
+        self.0.bounds()
+    }
+}
+
+#[test]
+fn a_start_target_steeper_than_a_distance_still_gives_a_closed_skin() {
+    // Blocks classified wholly inside and wholly outside next to each other, ±1 on both
+    // sides of the surface: the start stores and clamps them; before, 1647 open edges.
+    for k in [4.0, 32.0] {
+        let steep = Steep(sphere(0.4), k);
+        let mut skin: Skin<f32> = Skin::new(&steep, params(4.0, 0.0));
+        assert_watertight(skin.mesh(), &format!("×{k} at the start"));
+        assert_eq!(skin.mesh().euler_characteristic(), 2, "×{k}");
+        let (mean, _) = distance_voxels(skin.mesh(), &sphere(0.4));
+        assert!(mean < 0.5, "×{k}: {mean} voxels off the sphere");
+        skin.settle();
+        assert_watertight(skin.mesh(), &format!("×{k} settled"));
+    }
+}

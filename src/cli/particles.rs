@@ -98,7 +98,7 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     // --density-out, written as a fog volume on the way.
     let target_at = |frame: i64| -> Result<DensityGrid, FrameError> {
         let path = input.pattern.path(frame);
-        if input.existing.binary_search(&frame).is_err() {
+        if !input.pattern.is_held() && input.existing.binary_search(&frame).is_err() {
             return Err(FrameError::Data(format!(
                 "{}: frame {frame} of the particles is missing",
                 path.display()

@@ -5,8 +5,8 @@ use std::path::PathBuf;
 
 use activeskin::flow::Flow;
 use activeskin::frames::{
-    self, read_target, FrameError, FrameInput, InputFrames, Outputs, ScaleEstimate, VelocityInput,
-    VelocitySource,
+    self, read_target, read_target_in, FrameError, FrameInput, InputFrames, Outputs, ScaleEstimate,
+    TargetRead, TargetUnits, VelocityInput, VelocitySource,
 };
 use activeskin::sequence::parse_range;
 use activeskin::skin::AnySkin;
@@ -31,6 +31,10 @@ pub struct SkinArgs {
     /// Density of the surface, for fog volumes.
     #[arg(long)]
     iso: Option<f32>,
+    /// What the level set's distances are in: `auto` measures |∇φ| across the surface and
+    /// rescales (e.g. Mantaflow's `phi`, in voxels), saying so; `world` or `voxel`.
+    #[arg(long, value_enum, default_value_t = Units::Auto)]
+    target_units: Units,
     /// Start the skin on this VDB level set instead of the first target.
     #[arg(long)]
     init: Option<PathBuf>,
@@ -40,6 +44,23 @@ pub struct SkinArgs {
     physics: PhysicsArgs,
     #[command(flatten)]
     outputs: OutputArgs,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum Units {
+    Auto,
+    World,
+    Voxel,
+}
+
+impl From<Units> for TargetUnits {
+    fn from(units: Units) -> Self {
+        match units {
+            Units::Auto => TargetUnits::Auto,
+            Units::World => TargetUnits::World,
+            Units::Voxel => TargetUnits::Voxel,
+        }
+    }
 }
 
 /// `--frames` as every command reads it.
@@ -130,7 +151,11 @@ fn settle_scale(
     if velocity.source == VelocitySource::Off {
         return Ok(None);
     }
-    let estimate = velocity.measure_scale(input, args.grid.as_deref(), args.physics.fps)?;
+    let estimate = velocity.measure_scale(
+        input,
+        (args.grid.as_deref(), args.target_units.into()),
+        args.physics.fps,
+    )?;
     let Some(((a, _), _)) = estimate.fits.first() else {
         return Ok(None);
     };
@@ -178,10 +203,18 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
         None
     };
     let quiet = args.outputs.quiet;
+    let units = TargetUnits::from(args.target_units);
+    let read = |path: &std::path::Path| read_target_in(path, args.grid.as_deref(), args.iso, units);
     let mut noted = false;
+    let mut units_noted = false;
     let input_at = |frame: i64| -> Result<FrameInput, FrameError> {
         let path = input.file(frame, args.hold_missing)?;
-        let target = read_target(&path, args.grid.as_deref(), args.iso)?.0;
+        let TargetRead { target, note, .. } = read(&path)?;
+        // Said once: every frame of a cache is in the same units.
+        if let Some(line) = note.filter(|_| !units_noted && !quiet) {
+            eprintln!("activeskin: {line}");
+            units_noted = true;
+        }
         let mut note = |line: String| {
             if !noted && !quiet {
                 eprintln!("activeskin: {line}");
@@ -196,7 +229,11 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
         })
     };
     let first_file = input.file(range.0, args.hold_missing)?;
-    let (first_target, dx) = read_target(&first_file, args.grid.as_deref(), args.iso)?;
+    let TargetRead {
+        target: first_target,
+        dx,
+        ..
+    } = read(&first_file)?;
     let params = args.physics.params(dx)?;
     let skin = match &args.init {
         Some(path) => {

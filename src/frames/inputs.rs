@@ -8,12 +8,13 @@ use super::FrameError;
 use crate::flow::scale::{self, ScaleFit};
 use crate::flow::{GridFlow, Mean};
 use crate::particles;
-use crate::sequence::FramePattern;
+use crate::sequence::{FramePattern, PatternError};
 use crate::target::{rest_density, Density, DensityGrid, FogTarget, LevelSetTarget, Target};
 use crate::vdb::{self, Grid, WriteOptions};
-use crate::volume::{GridClass, GridData};
+use crate::volume::{units, GridClass, GridData};
 
-/// An input sequence: its pattern, the frames found on disk (sorted), the range to run.
+/// An input sequence: its pattern, the frames found on disk (sorted; none for one held
+/// file), the range to run.
 pub struct InputFrames {
     pub pattern: FramePattern,
     pub existing: Vec<i64>,
@@ -23,8 +24,29 @@ pub struct InputFrames {
 impl InputFrames {
     /// The sequence given as `flag` (e.g. `--target`); the range is `frames`, or every
     /// frame found.
+    /// A file without a frame number is held for every frame of `frames`, which must be
+    /// given (a static target: a shape to smooth with tension, a morph's end).
     pub fn find(flag: &str, spec: &str, frames: Option<(i64, i64)>) -> Result<Self, FrameError> {
-        let pattern = FramePattern::parse(spec).map_err(|e| FrameError::Usage(e.to_string()))?;
+        let pattern = match FramePattern::parse(spec) {
+            Err(PatternError::NoFrameNumber(_)) if Path::new(spec).is_file() => {
+                let Some((a, b)) = frames else {
+                    return Err(FrameError::Usage(format!(
+                        "{flag} '{spec}' is one file, not a sequence: give --frames FIRST-LAST to hold it that long"
+                    )));
+                };
+                return Ok(InputFrames {
+                    pattern: FramePattern::held(spec),
+                    existing: Vec::new(),
+                    range: (a, b),
+                });
+            }
+            Err(PatternError::NoFrameNumber(_)) => {
+                return Err(FrameError::Usage(format!(
+                    "{flag} '{spec}': no such file, and no frame number for a sequence (use ####, %04d, $F4 or $F)"
+                )))
+            }
+            other => other.map_err(|e| FrameError::Usage(e.to_string()))?,
+        };
         let existing = pattern.existing_frames()?;
         let range = match (frames, existing.first(), existing.last()) {
             (Some(range), _, _) => range,
@@ -45,7 +67,7 @@ impl InputFrames {
     /// The file of `frame`; with `hold_missing`, the last earlier one when it is missing.
     pub fn file(&self, frame: i64, hold_missing: bool) -> Result<PathBuf, FrameError> {
         let path = self.pattern.path(frame);
-        if self.existing.binary_search(&frame).is_ok() {
+        if self.pattern.is_held() || self.existing.binary_search(&frame).is_ok() {
             return Ok(path);
         }
         let held = self.existing.iter().rev().find(|&&f| f < frame);
@@ -62,23 +84,53 @@ impl InputFrames {
     }
 }
 
+/// What a level set target's distances are measured in (`--target-units`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TargetUnits {
+    /// Measured from |∇φ| across the zero crossing; rescaled when not 1 per world unit.
+    #[default]
+    Auto,
+    World,
+    /// Voxels, as Mantaflow's `phi`.
+    Voxel,
+}
+
 /// A target read from a VDB file (a level set, or a fog volume at density `iso`), and its
-/// voxel size.
+/// voxel size; level sets in other units rescaled to world units ([`TargetUnits::Auto`]).
 pub fn read_target(
     path: &Path,
     grid: Option<&str>,
     iso: Option<f32>,
 ) -> Result<(Box<dyn Target>, f32), FrameError> {
-    let data = Grid::read(path, grid)?.to_data()?;
+    read_target_in(path, grid, iso, TargetUnits::Auto).map(|read| (read.target, read.dx))
+}
+
+/// A target as [`read_target_in`] reads it.
+pub struct TargetRead {
+    pub target: Box<dyn Target>,
+    /// The grid's voxel size.
+    pub dx: f32,
+    /// What was done to the level set's distances, when anything was.
+    pub note: Option<String>,
+}
+
+/// [`read_target`] with the level set's `units` given, and a line saying what was done to
+/// its distances, when anything was.
+pub fn read_target_in(
+    path: &Path,
+    grid: Option<&str>,
+    iso: Option<f32>,
+    units: TargetUnits,
+) -> Result<TargetRead, FrameError> {
+    let mut data = Grid::read(path, grid)?.to_data()?;
     check_usable(path, &data)?;
-    if data.leaf_count() == 0 && data.tiles.is_empty() {
-        return Err(FrameError::Data(format!(
-            "{}: grid '{}' is empty",
-            path.display(),
-            data.name
-        )));
-    }
+    // An empty grid is a frame without liquid (an emitter not started yet, a pool drained):
+    // all outside, the skin goes on toward it.
     let dx = data.transform.voxel_size() as f32;
+    let note = match data.class {
+        GridClass::LevelSet => to_world_units(&mut data, units),
+        _ => None,
+    };
     let target: Box<dyn Target> = match (data.class, iso) {
         (GridClass::LevelSet, _) => Box::new(LevelSetTarget::new(&data)),
         (_, Some(iso)) if iso.is_finite() => Box::new(FogTarget::new(&data, iso)),
@@ -95,7 +147,57 @@ pub fn read_target(
             )))
         }
     };
-    Ok((target, dx))
+    Ok(TargetRead { target, dx, note })
+}
+
+/// Makes a level set's distances world units, and a background of 0 (a dense grid, as
+/// Mantaflow writes) outside; says what it did.
+fn to_world_units(data: &mut GridData, units: TargetUnits) -> Option<String> {
+    let dx = data.transform.voxel_size() as f32;
+    let name = data.name.clone();
+    let ratio = |k: f64| (0.7..1.43).contains(&k);
+    let (scale, mut note) = match units {
+        TargetUnits::World => (1.0, None),
+        TargetUnits::Voxel => (dx, None),
+        TargetUnits::Auto => match units::gradient_per_world_unit(data) {
+            Some(k) if ratio(k) => (1.0, None),
+            Some(k) if ratio(k * f64::from(dx)) => (
+                dx,
+                Some(format!(
+                    "grid '{name}': distances in voxels (|∇φ| {k:.1} per world unit, Δx = {dx}); rescaled to world units (--target-units world keeps them)"
+                )),
+            ),
+            Some(k) => (
+                (1.0 / k) as f32,
+                Some(format!(
+                    "grid '{name}': |∇φ| is {k:.3} per world unit, not 1; distances rescaled by {:.4} (--target-units world keeps them)",
+                    1.0 / k
+                )),
+            ),
+            None => (1.0, None),
+        },
+    };
+    if scale != 1.0 {
+        units::rescale(data, scale);
+    }
+    if data.background <= 0.0 {
+        // Beyond a dense grid's voxels: outside, as far as its farthest stored distance.
+        let outside = data
+            .leaf_values
+            .iter()
+            .chain(data.tiles.iter().map(|t| &t.value))
+            .fold(3.0 * dx, |m, &v| m.max(v));
+        let line = format!(
+            "grid '{name}': background {} taken as {outside} (outside) beyond its voxels",
+            data.background
+        );
+        data.background = outside;
+        note = Some(match note {
+            Some(n) => format!("{n}; {line}"),
+            None => line,
+        });
+    }
+    note
 }
 
 /// What any grid we sample or mesh must be: uniform voxels and finite values.
@@ -140,13 +242,8 @@ impl ParticleInput {
     /// Reads the particles of `frame` from `path` (once) and builds their density, with
     /// their velocities when the file has them and they are not ignored.
     pub fn target(&self, path: &Path, frame: i64) -> Result<DensityGrid, FrameError> {
+        // No particles is a frame without liquid, as an empty grid is.
         let cloud = particles::read(path)?;
-        if cloud.positions.is_empty() {
-            return Err(FrameError::Data(format!(
-                "{}: no particles",
-                path.display()
-            )));
-        }
         let support = 2.0 * self.smoothing_length;
         let density = match cloud.radii {
             Some(radii) if !self.ignore_radii => {
@@ -277,13 +374,14 @@ const SCALE_POINTS: usize = 20_000;
 
 impl VelocityInput {
     /// Measures the factor that turns the velocity into world units per second from the
-    /// first frame pairs of `frames` whose level sets (grid `grid`) and velocities exist:
+    /// first frame pairs of `frames` whose level sets (grid `grid`, distances in `units`)
+    /// and velocities exist:
     /// the surface's own motion between them against the velocity's prediction
     /// ([`scale::fit`]), over the voxels within 1.5 voxels of the earlier surface.
     pub fn measure_scale(
         &self,
         input: &InputFrames,
-        grid: Option<&str>,
+        (grid, units): (Option<&str>, TargetUnits),
         fps: f64,
     ) -> Result<ScaleEstimate, FrameError> {
         let mut fits = Vec::new();
@@ -306,7 +404,7 @@ impl VelocityInput {
             // A pair without velocity or level sets, or a frame that cannot be read, ends
             // the measurement (the run reports a bad frame when it gets there, after writing
             // the frames before).
-            match fit_pair(&unscaled, input, grid, (a, b), fps) {
+            match fit_pair(&unscaled, input, (grid, units), (a, b), fps) {
                 Ok(Some(fit)) => fits.push(((a, b), fit)),
                 Ok(None) | Err(_) => break,
             }
@@ -323,7 +421,7 @@ impl VelocityInput {
 fn fit_pair(
     unscaled: &VelocityInput,
     input: &InputFrames,
-    grid: Option<&str>,
+    (grid, units): (Option<&str>, TargetUnits),
     (a, b): (i64, i64),
     fps: f64,
 ) -> Result<Option<ScaleFit>, FrameError> {
@@ -335,13 +433,16 @@ fn fit_pair(
     ) else {
         return Ok(None);
     };
-    let (data_a, data_b) = (
+    let (mut data_a, mut data_b) = (
         Grid::read(&path_a, grid)?.to_data()?,
         Grid::read(&path_b, grid)?.to_data()?,
     );
     if data_a.class != GridClass::LevelSet || data_b.class != GridClass::LevelSet {
         return Ok(None); // a fog volume's density is not a distance
     }
+    // The distances the skin will see.
+    to_world_units(&mut data_a, units);
+    to_world_units(&mut data_b, units);
     let dx = data_a.transform.voxel_size() as f32;
     let points = band_points(&data_a, 1.5 * dx);
     let step = points.len().div_ceil(SCALE_POINTS).max(1);

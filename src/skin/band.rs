@@ -86,6 +86,17 @@ fn sweep<P: Potential>(
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
     update: impl Fn(&Halo, IVec3, IVec3, f32) -> f32 + Sync,
 ) {
+    sweep_nodes(grid, scratch, false, update);
+}
+
+/// [`sweep`] over the active nodes, or over every stored node when `all` (a start, before
+/// the tube exists).
+fn sweep_nodes<P: Potential>(
+    grid: &mut SparseGrid<P>,
+    scratch: &mut Vec<[f32; BLOCK_NODES]>,
+    all: bool,
+    update: impl Fn(&Halo, IVec3, IVec3, f32) -> f32 + Sync,
+) {
     scratch.resize(grid.block_count(), [0.0; BLOCK_NODES]);
     let grid_ref = &*grid;
     scratch
@@ -97,7 +108,7 @@ fn sweep<P: Potential>(
             for (offset, out) in out.iter_mut().enumerate() {
                 let l = offset_coords(offset);
                 let f = halo.at(l.x, l.y, l.z);
-                *out = if block.is_active(offset) {
+                *out = if all || block.is_active(offset) {
                     update(halo, l, base + l, f)
                 } else {
                     f
@@ -125,6 +136,110 @@ fn godunov(mut a: [f32; 3], h: f32) -> f32 {
     let s = a[0] + a[1] + a[2];
     let q = a[0] * a[0] + a[1] * a[1] + a[2] * a[2];
     (s + (s * s - 3.0 * (q - h * h)).max(0.0).sqrt()) / 3.0
+}
+
+/// Stores both sides of every border between an inside tile and a region that is not
+/// inside: a start target steeper than a distance (a level set in other units, a sharp
+/// density) can classify neighbouring blocks as wholly inside and wholly outside, and
+/// the skin between them must be on stored nodes to exist.
+pub(crate) fn start_consistently<P: Potential>(grid: &mut SparseGrid<P>) {
+    let mut borders = Vec::new();
+    for &c in grid.inside_tiles() {
+        for n in 0..27 {
+            let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
+            let next = c + d;
+            if !grid.inside_tiles().contains(&next) && grid.find(next).is_none() {
+                borders.push(c);
+                borders.push(next);
+            }
+        }
+    }
+    for c in borders {
+        grid.touch(c);
+    }
+}
+
+/// Caps each node next to the skin at its distance along its crossed edges (t/w for a
+/// crossing at t voxels), the pair on each edge alike so that the crossing stays where
+/// it was, and keeps every corner of a crossed cell in the band: a start target steeper
+/// than a distance would leave ±1 around the skin, with no band node to carry it.
+pub(crate) fn clamp_at_crossings<P: Potential>(
+    grid: &mut SparseGrid<P>,
+    band_width: f32,
+    scratch: &mut Vec<[f32; BLOCK_NODES]>,
+) {
+    sweep_nodes(grid, scratch, true, |halo, l, _, f| {
+        let mut bound = f32::INFINITY;
+        for e in IVec3::AXES {
+            for n in [l - e, l + e] {
+                let g = halo.at(n.x, n.y, n.z);
+                if (g < 0.0) != (f < 0.0) {
+                    bound = bound.min(f / (f - g) / band_width);
+                }
+            }
+        }
+        // Any node within one node (26 neighbours) of the other sign shares a cell with it.
+        let corner = (0..27).any(|n| {
+            let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
+            let m = l + d;
+            (halo.at(m.x, m.y, m.z) < 0.0) != (f < 0.0)
+        });
+        if corner {
+            bound = bound.min(BAND_CORNER);
+        }
+        f.signum() * f.abs().min(bound)
+    });
+}
+
+/// The largest |f| a corner of a crossed cell starts with: inside the band.
+const BAND_CORNER: f32 = 0.99;
+
+/// The blocks not stored that hold a corner of a cell the skin crosses next to a stored
+/// block: the polygonizer only reads stored blocks' cells.
+pub(crate) fn unstored_crossed<P: Potential>(grid: &SparseGrid<P>) -> Vec<IVec3> {
+    let mut missing: Vec<IVec3> = grid
+        .blocks()
+        .par_iter()
+        .map_init(Box::<Halo>::default, |halo, block| {
+            halo.gather(grid, block.coord);
+            let mut out = Vec::new();
+            for x in -1..BLOCK_DIM {
+                for y in -1..BLOCK_DIM {
+                    for z in -1..BLOCK_DIM {
+                        let cell = IVec3::new(x, y, z);
+                        let interior = cell.cmpge(IVec3::ZERO).all()
+                            && cell.cmplt(IVec3::splat(BLOCK_DIM - 1)).all();
+                        if interior {
+                            continue;
+                        }
+                        let corners =
+                            (0..8).map(|c| cell + IVec3::new(c >> 2, (c >> 1) & 1, c & 1));
+                        let signs = corners.clone().map(|m| halo.at(m.x, m.y, m.z) < 0.0);
+                        let (inside, outside) =
+                            signs.fold((false, false), |(a, b), s| (a || s, b || !s));
+                        if inside && outside {
+                            for m in corners {
+                                let b = block.coord
+                                    + IVec3::new(
+                                        m.x.div_euclid(BLOCK_DIM),
+                                        m.y.div_euclid(BLOCK_DIM),
+                                        m.z.div_euclid(BLOCK_DIM),
+                                    );
+                                if grid.find(b).is_none() {
+                                    out.push(b);
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            out
+        })
+        .flatten_iter()
+        .collect();
+    missing.sort_unstable_by_key(|c| c.to_array());
+    missing.dedup();
+    missing
 }
 
 /// Sets every node of the blocks to `value(global node)`, clamped; used to start a skin.

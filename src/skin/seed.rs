@@ -103,6 +103,17 @@ impl<P: Potential> Skin<P> {
                 }
             }
         }
+        // As at a start: every crossed cell stored, its corners in the band.
+        for _ in 0..4 {
+            let missing = super::band::unstored_crossed(&self.grid);
+            if missing.is_empty() {
+                break;
+            }
+            for c in missing {
+                self.grid.touch(c);
+            }
+        }
+        super::band::clamp_at_crossings(&mut self.grid, w, &mut self.rates);
         crate::grid::tube::upkeep(&mut self.grid);
         // The seeds hold the target's own distance estimate (first order for densities):
         // made a distance like the rest of the band before anything reads or writes it.
