@@ -89,23 +89,50 @@ std::unique_ptr<openvdb::io::File> open_file(rust::Str path) {
 
 rust::Vec<GridSummary> list_grids(rust::Str path) {
   auto file = open_file(path);
-  openvdb::GridPtrVecPtr grids = file->getGrids();
-  file->close();
+  // Grid by grid: one that OpenVDB cannot decode (an attribute codec it does not
+  // register, as Mantaflow's int32_trnc) is listed from its metadata with the reason, and
+  // hides nothing else.
+  openvdb::GridPtrVecPtr metas = file->readAllGridMetadata();
   rust::Vec<GridSummary> out;
-  for (const auto &grid : *grids) {
+  for (const auto &meta : *metas) {
     GridSummary s;
-    s.name = grid->getName();
-    s.value_type = grid->valueType();
-    s.grid_class = to_class(grid->getGridClass());
-    const auto &xf = grid->transform();
+    s.name = meta->getName();
+    s.value_type = meta->valueType();
+    s.grid_class = to_class(meta->getGridClass());
+    const auto &xf = meta->transform();
     s.voxel_size = to_array(xf.voxelSize());
     s.uniform_linear = is_uniform_linear(xf);
+    s.active_voxels = 0;
+    s.points = 0;
+    s.has_bbox = false;
+    s.bbox_min = {0, 0, 0};
+    s.bbox_max = {0, 0, 0};
+    s.background = "?";
+    openvdb::GridBase::Ptr grid;
+    try {
+      grid = file->readGrid(meta->getName());
+    } catch (const std::exception &e) {
+      s.error = e.what();
+      // What the writer recorded of it (OpenVDB's file_* statistics).
+      if (auto count = meta->getMetadata<openvdb::Int64Metadata>("file_voxel_count")) {
+        s.active_voxels = static_cast<uint64_t>(count->value());
+      }
+      auto lo = meta->getMetadata<openvdb::Vec3IMetadata>("file_bbox_min");
+      auto hi = meta->getMetadata<openvdb::Vec3IMetadata>("file_bbox_max");
+      if (lo && hi && s.active_voxels > 0) {
+        const openvdb::CoordBBox box(openvdb::Coord(lo->value()), openvdb::Coord(hi->value()));
+        const openvdb::BBoxd world = xf.indexToWorld(box);
+        s.has_bbox = true;
+        s.bbox_min = to_array(world.min());
+        s.bbox_max = to_array(world.max());
+      }
+      out.push_back(std::move(s));
+      continue;
+    }
     s.active_voxels = grid->activeVoxelCount();
     s.points = point_count(*grid);
     const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
     s.has_bbox = s.active_voxels > 0 && !box.empty();
-    s.bbox_min = {0, 0, 0};
-    s.bbox_max = {0, 0, 0};
     if (s.has_bbox) {
       const openvdb::BBoxd world = xf.indexToWorld(box);
       s.bbox_min = to_array(world.min());
@@ -117,6 +144,7 @@ rust::Vec<GridSummary> list_grids(rust::Str path) {
     s.background = known ? bg.str() : "?";
     out.push_back(std::move(s));
   }
+  file->close();
   return out;
 }
 

@@ -96,6 +96,8 @@ PointBuffers read_points(rust::Str path, rust::Str name);
 void write_points(rust::Str path, rust::Slice<const float> positions,
                   rust::Slice<const float> radii, rust::Slice<const float> velocities,
                   double voxel_size, rust::Str name);
+void write_points_beside(rust::Str path, rust::Slice<const float> positions,
+                         double voxel_size, rust::Str name, const FloatGrid &beside);
 std::unique_ptr<FloatGrid> mesh_to_level_set(rust::Slice<const float> points,
                                              rust::Slice<const uint32_t> triangles,
                                              double voxel_size, float half_width);

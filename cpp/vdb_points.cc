@@ -112,9 +112,12 @@ PointBuffers read_points(rust::Str path, rust::Str name) {
   return out;
 }
 
-void write_points(rust::Str path, rust::Slice<const float> positions,
-                  rust::Slice<const float> radii, rust::Slice<const float> velocities,
-                  double voxel_size, rust::Str name) {
+namespace {
+
+openvdb::points::PointDataGrid::Ptr make_points(rust::Slice<const float> positions,
+                                                rust::Slice<const float> radii,
+                                                rust::Slice<const float> velocities,
+                                                double voxel_size, rust::Str name) {
   ensure_initialized();
   if (positions.size() % 3 != 0) {
     throw openvdb::ValueError("positions must hold whole points");
@@ -154,8 +157,25 @@ void write_points(rust::Str path, rust::Slice<const float> positions,
                                        openvdb::points::PointAttributeVector<openvdb::Vec3f>(u));
   }
   grid->setName(std::string(name));
+  return grid;
+}
+
+}  // namespace
+
+void write_points(rust::Str path, rust::Slice<const float> positions,
+                  rust::Slice<const float> radii, rust::Slice<const float> velocities,
+                  double voxel_size, rust::Str name) {
+  auto grid = make_points(positions, radii, velocities, voxel_size, name);
   openvdb::io::File file{std::string(path)};
   file.write({grid});
+  file.close();
+}
+
+void write_points_beside(rust::Str path, rust::Slice<const float> positions,
+                         double voxel_size, rust::Str name, const FloatGrid &beside) {
+  auto grid = make_points(positions, {}, {}, voxel_size, name);
+  openvdb::io::File file{std::string(path)};
+  file.write({beside.impl().grid, grid});
   file.close();
 }
 

@@ -447,6 +447,30 @@ pub fn write_points_with_velocities(
     .map_err(|message| VdbError::file(path, message))
 }
 
+/// Writes a point data grid of `positions` after the float grid `beside`, in one file: a
+/// fixture for files that mix grids.
+pub fn write_points_beside(
+    path: &Path,
+    positions: &[[f32; 3]],
+    voxel_size: f64,
+    name: &str,
+    beside: &Grid,
+) -> Result<(), VdbError> {
+    let flat: Vec<f32> = positions.iter().flatten().copied().collect();
+    crate::io::write_atomically(path, |tmp| {
+        ffi::bridge::write_points_beside(
+            &tmp.to_string_lossy(),
+            &flat,
+            voxel_size,
+            name,
+            &beside.inner,
+        )
+        .map_err(|e| e.what().to_string())?;
+        verify_written(tmp)
+    })
+    .map_err(|message| VdbError::file(path, message))
+}
+
 /// Writes a file holding only a Vec3s grid named `v`: a fixture for tests of bad input.
 #[doc(hidden)]
 pub fn write_vector_grid_file(path: &Path) -> Result<(), VdbError> {

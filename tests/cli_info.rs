@@ -157,3 +157,73 @@ fn bad_usage_exits_2() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// A level set `phi` and a point data grid `particles` in one file, the points' position
+/// codec renamed in the file's bytes to one OpenVDB does not register — as Mantaflow's
+/// `int32_trnc` is to OpenVDB 10.
+fn mantaflow_like_file(dir: &Path) -> PathBuf {
+    let path = dir.join("fluid_data_0001.vdb");
+    let mut data = Grid::level_set_sphere(0.5, [1.0; 3], 0.05, 3.0)
+        .unwrap()
+        .to_data()
+        .unwrap();
+    data.name = "phi".into();
+    let phi = Grid::from_data(&data).unwrap();
+    let points: Vec<[f32; 3]> = (0..200)
+        .map(|i| {
+            let t = i as f32 * 0.37;
+            [
+                1.0 + 0.3 * t.sin(),
+                1.0 + 0.3 * t.cos(),
+                1.0 + 0.001 * i as f32,
+            ]
+        })
+        .collect();
+    vdb::write_points_beside(&path, &points, 0.05, "particles", &phi).unwrap();
+    let mut bytes = std::fs::read(&path).unwrap();
+    let codec = b"fxpt16";
+    let at = bytes
+        .windows(codec.len())
+        .position(|w| w == codec)
+        .expect("the position codec's name in the file");
+    bytes[at..at + codec.len()].copy_from_slice(b"zzpt16");
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+#[test]
+fn a_grid_openvdb_cannot_decode_is_listed_and_hides_nothing() {
+    let dir = common::scratch();
+    let path = mantaflow_like_file(dir.path());
+    let out = activeskin(&[&path]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains(": 2 grids"), "{stdout}");
+    assert!(
+        stdout.contains("grid 'phi'") && stdout.contains("grid 'particles'"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("NOT DECODABLE") && stdout.contains("zzpt16"),
+        "{stdout}"
+    );
+    // What the writer recorded of the undecodable grid.
+    assert!(stdout.contains(" (as written)"), "{stdout}");
+    // Reading the level set does not depend on decoding the points.
+    let phi = Grid::read(&path, Some("phi")).unwrap().to_data().unwrap();
+    assert!(phi.leaf_count() > 0);
+    let skin = dir.path().join("skin.####.obj");
+    let result = Command::new(env!("CARGO_BIN_EXE_activeskin"))
+        .args(["skin", "--target"])
+        .arg(&path)
+        .args(["--frames", "1-2", "--grid", "phi", "-q", "--mesh"])
+        .arg(&skin)
+        .output()
+        .unwrap();
+    common::assert_ok(&result);
+}

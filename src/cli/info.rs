@@ -15,7 +15,8 @@ pub fn run(files: &[PathBuf]) -> anyhow::Result<()> {
                 print!("{}", describe(path, &grids));
                 // Float grids are targets (`skin`), point data grids particles.
                 let usable = |g: &GridSummary| {
-                    g.value_type == "float" || g.value_type.starts_with("ptdataidx")
+                    g.error.is_empty()
+                        && (g.value_type == "float" || g.value_type.starts_with("ptdataidx"))
                 };
                 if !grids.iter().any(usable) {
                     failures.push(format!(
@@ -82,6 +83,24 @@ pub fn describe(path: &Path, grids: &[GridSummary]) -> String {
             "NOT a uniform linear transform"
         };
         let _ = writeln!(s, "  voxel size     {voxel} ({transform})");
+        if !g.error.is_empty() {
+            // Listed from its metadata: what the writer recorded, and why it stops there.
+            let _ = writeln!(
+                s,
+                "  NOT DECODABLE  {} (other grids are read as usual)",
+                g.error
+            );
+            let _ = writeln!(s, "  active voxels  {} (as written)", g.active_voxels);
+            if g.has_bbox {
+                let _ = writeln!(
+                    s,
+                    "  bbox (world)   {} to {} (as written)",
+                    vec3(g.bbox_min),
+                    vec3(g.bbox_max)
+                );
+            }
+            continue;
+        }
         let _ = writeln!(s, "  active voxels  {}", g.active_voxels);
         if g.value_type.starts_with("ptdataidx") {
             let _ = writeln!(

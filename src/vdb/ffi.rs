@@ -35,6 +35,9 @@ pub(crate) mod bridge {
         bbox_max: [f64; 3],
         /// The background value printed by OpenVDB's `operator<<` for the grid's type.
         background: String,
+        /// Why OpenVDB could not decode the grid (then only its metadata is known), or
+        /// empty.
+        error: String,
     }
 
     /// Everything about a float grid except its voxels.
@@ -231,6 +234,15 @@ pub(crate) mod bridge {
             velocities: &[f32],
             voxel_size: f64,
             name: &str,
+        ) -> Result<()>;
+        /// Writes a point data grid (positions only) after the float grid `beside`, in one
+        /// file: a fixture for files mixing grids.
+        fn write_points_beside(
+            path: &str,
+            positions: &[f32],
+            voxel_size: f64,
+            name: &str,
+            beside: &FloatGrid,
         ) -> Result<()>;
         /// `Grid::memUsage()`, bytes.
         fn mem_usage(grid: &FloatGrid) -> u64;
