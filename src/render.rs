@@ -24,6 +24,33 @@ pub enum View {
     Perspective,
 }
 
+/// The scene's up axis: y (Houdini, Maya, Nuke) or z (Blender, 3ds Max).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Up {
+    #[default]
+    Y,
+    Z,
+}
+
+/// Where the camera looks (unit direction) and which way is up in the image, for `view`
+/// in a scene whose up axis is `up`. The z-up views are the y-up ones turned as Blender
+/// turns a y-up scene, (x, y, z) → (x, −z, y): front looks along +y, top down −z.
+pub fn camera(view: View, up: Up) -> (Vec3, Vec3) {
+    let (direction, image_up) = match view {
+        View::Front => (Vec3::NEG_Z, Vec3::Y),
+        View::Side => (Vec3::NEG_X, Vec3::Y),
+        View::Top => (Vec3::NEG_Y, Vec3::NEG_Z),
+        View::Perspective => (Vec3::new(-1.0, -0.7, -1.0).normalize(), Vec3::Y),
+    };
+    match up {
+        Up::Y => (direction, image_up),
+        Up::Z => {
+            let turn = |v: Vec3| Vec3::new(v.x, -v.z, v.y);
+            (turn(direction), turn(image_up))
+        }
+    }
+}
+
 /// One rendered image.
 pub struct Render {
     pub width: usize,
@@ -44,24 +71,20 @@ pub struct RenderError {
     pub message: String,
 }
 
-/// Renders the zero set of `target` inside `frame` (a box the camera fits), marching in
+/// Renders the zero set of `target` inside `frame` (a box the camera fits: its bounding
+/// sphere, whatever the view) from `view` in a scene whose up axis is `up`, marching in
 /// steps no longer than `step` once near the surface.
 pub fn render(
     target: &dyn Target,
     frame: Aabb,
-    view: View,
+    (view, up): (View, Up),
     size: (usize, usize),
     step: f32,
 ) -> Render {
     let (width, height) = size;
     let centre = 0.5 * (frame.min + frame.max);
     let radius = 0.5 * (frame.max - frame.min).length().max(1e-6);
-    let (direction, up) = match view {
-        View::Front => (Vec3::NEG_Z, Vec3::Y),
-        View::Side => (Vec3::NEG_X, Vec3::Y),
-        View::Top => (Vec3::NEG_Y, Vec3::NEG_Z),
-        View::Perspective => (Vec3::new(-1.0, -0.7, -1.0).normalize(), Vec3::Y),
-    };
+    let (direction, up) = camera(view, up);
     // A 30° vertical field of view whose cone holds the box's bounding sphere.
     let half_fov = 15f32.to_radians();
     let aspect = width as f32 / height.max(1) as f32;
@@ -219,5 +242,54 @@ impl Render {
             .write_header()
             .and_then(|mut w| w.write_image_data(&bytes))
             .map_err(|e| e.to_string())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::target::BoxShape;
+
+    /// Rows and columns of the image the surface covers, as fractions.
+    fn extent(image: &Render) -> (f32, f32) {
+        let hit = |x: usize, y: usize| image.rgba[y * image.width + x][3] > 0.0;
+        let rows = (0..image.height)
+            .filter(|&y| (0..image.width).any(|x| hit(x, y)))
+            .count();
+        let columns = (0..image.width)
+            .filter(|&x| (0..image.height).any(|y| hit(x, y)))
+            .count();
+        (
+            rows as f32 / image.height as f32,
+            columns as f32 / image.width as f32,
+        )
+    }
+
+    #[test]
+    fn a_z_up_pool_is_a_floor_not_a_wall() {
+        // A pool as Blender has it: wide in x and y, shallow in z.
+        let pool = BoxShape {
+            center: Vec3::ZERO,
+            half_size: Vec3::new(1.0, 1.0, 0.05),
+        };
+        let frame = pool.bounds();
+        let front = |up| render(&pool, frame, (View::Front, up), (96, 96), 0.01);
+        // Seen from the front of a z-up scene: a thin horizontal band.
+        let (rows, columns) = extent(&front(Up::Z));
+        assert!(
+            rows < 0.15 && columns > 0.5,
+            "z up: rows {rows}, columns {columns}"
+        );
+        // Taken as y up, the same pool faces the camera: a wall.
+        let (rows, columns) = extent(&front(Up::Y));
+        assert!(
+            rows > 0.5 && columns > 0.5,
+            "y up: rows {rows}, columns {columns}"
+        );
+        // The perspective view of a z-up scene has z up in the image: the top face's
+        // normals (+z) are seen, the bottom's never.
+        let image = render(&pool, frame, (View::Perspective, Up::Z), (96, 96), 0.01);
+        let seen = |n: Vec3| image.normal.iter().filter(|m| m.dot(n) > 0.9).count();
+        assert!(seen(Vec3::Z) > 100 && seen(Vec3::NEG_Z) == 0);
     }
 }

@@ -65,6 +65,10 @@ fn renders_a_sphere_to_exr_layers_and_png() {
 
     let png_path = dir.path().join("sphere.png");
     run(&png_path, &["--size", "40x30"]);
+    // A z-up scene (Blender's), through the same command.
+    let z_up = dir.path().join("z_up.png");
+    run(&z_up, &["--size", "40x30", "--up", "z"]);
+    assert!(z_up.is_file());
     let decoder = png::Decoder::new(std::fs::File::open(&png_path).unwrap());
     let reader = decoder.read_info().unwrap();
     assert_eq!((reader.info().width, reader.info().height), (40, 30));

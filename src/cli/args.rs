@@ -8,7 +8,7 @@ use activeskin::grid::Precision;
 use activeskin::skin::{SkinParams, SpeedParams};
 
 use super::pattern_arg;
-use super::render::parse_size;
+use super::render::{parse_size, UpArg};
 
 /// The skin's physical and numerical options.
 #[derive(clap::Args)]
@@ -99,6 +99,9 @@ pub struct OutputArgs {
     /// Render size, WIDTHxHEIGHT.
     #[arg(long, default_value = "640x360")]
     pub render_size: String,
+    /// The scene's up axis for renders: y (Houdini, Maya) or z (Blender).
+    #[arg(long, value_enum, default_value_t = UpArg::Y)]
+    pub up: UpArg,
     /// One JSON object per frame (frame, time, sub-steps, band nodes, blocks, area,
     /// volume, Euler characteristic, components, manifold, clean, milliseconds).
     #[arg(long)]
@@ -122,6 +125,7 @@ impl OutputArgs {
             out: self.out.as_deref().map(pattern_arg).transpose()?,
             mesh: self.mesh.as_deref().map(pattern_arg).transpose()?,
             render,
+            up: self.up.into(),
             stats: self.stats.clone(),
             resume: self.resume,
             progress: if self.quiet {

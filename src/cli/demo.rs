@@ -35,6 +35,7 @@ fn outputs(dir: &Path, name: &str, quiet: bool) -> OutputArgs {
         mesh: Some(file("obj")),
         render: Some(file("exr")),
         render_size: "480x270".into(),
+        up: super::render::UpArg::Y,
         stats: Some(dir.join(format!("{name}/stats.jsonl"))),
         resume: false,
         quiet,

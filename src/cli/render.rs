@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use activeskin::render::{self, View};
+use activeskin::render::{self, Up, View};
 use anyhow::Context;
 
 use activeskin::frames::read_target;
@@ -19,6 +19,9 @@ pub struct RenderArgs {
     size: String,
     #[arg(long, value_enum, default_value_t = ViewArg::Perspective)]
     view: ViewArg,
+    /// The scene's up axis: y (Houdini, Maya) or z (Blender).
+    #[arg(long, value_enum, default_value_t = UpArg::Y)]
+    up: UpArg,
     /// Grid name (default: the first float grid).
     #[arg(long)]
     grid: Option<String>,
@@ -46,6 +49,21 @@ impl From<ViewArg> for View {
     }
 }
 
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum UpArg {
+    Y,
+    Z,
+}
+
+impl From<UpArg> for Up {
+    fn from(up: UpArg) -> Up {
+        match up {
+            UpArg::Y => Up::Y,
+            UpArg::Z => Up::Z,
+        }
+    }
+}
+
 /// `640x480` → (640, 480).
 pub fn parse_size(spec: &str) -> anyhow::Result<(usize, usize)> {
     let parsed = spec
@@ -61,7 +79,13 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let size = parse_size(&args.size)?;
     let (target, dx) = read_target(&args.input, args.grid.as_deref(), args.iso)?;
     let frame = target.bounds();
-    let image = render::render(&*target, frame, args.view.into(), size, dx);
+    let image = render::render(
+        &*target,
+        frame,
+        (args.view.into(), args.up.into()),
+        size,
+        dx,
+    );
     image
         .write(&args.output)
         .with_context(|| format!("rendering {}", args.input.display()))?;

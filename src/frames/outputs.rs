@@ -8,7 +8,7 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::FrameError;
-use crate::render::{self, View};
+use crate::render::{self, Up, View};
 use crate::sequence::FramePattern;
 use crate::skin::{AnySkin, StepStats};
 use crate::target::{Aabb, LevelSetTarget, Target};
@@ -32,6 +32,8 @@ pub struct OutputSpec {
     pub mesh: Option<FramePattern>,
     /// Renders (EXR or PNG by extension) and their size.
     pub render: Option<(FramePattern, (usize, usize))>,
+    /// The scene's up axis, for renders.
+    pub up: Up,
     /// One JSON object per frame.
     pub stats: Option<PathBuf>,
     /// Continue after the last skin VDB written under `out`.
@@ -48,6 +50,7 @@ pub struct Outputs {
     out: Option<FramePattern>,
     mesh: Option<FramePattern>,
     render: Option<(FramePattern, (usize, usize), Option<Aabb>)>,
+    up: Up,
     stats: Option<(PathBuf, Vec<u8>)>,
     stats_fields: serde_json::Map<String, serde_json::Value>,
     progress: ProgressBar,
@@ -104,6 +107,7 @@ impl Outputs {
             out,
             mesh,
             render,
+            up: spec.up,
             stats: spec.stats.clone().map(|p| (p, Vec::new())),
             stats_fields: spec.stats_fields.clone(),
             progress,
@@ -142,7 +146,7 @@ impl Outputs {
             let frame_box = *camera.get_or_insert_with(|| {
                 bounds.padded(0.25 * (bounds.max - bounds.min).max_element())
             });
-            render::render(&target, frame_box, View::Perspective, *size, dx)
+            render::render(&target, frame_box, (View::Perspective, self.up), *size, dx)
                 .write(&pattern.path(frame))?;
         }
         let ms = started.elapsed().as_secs_f64() * 1e3;
