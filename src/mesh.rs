@@ -77,16 +77,14 @@ impl Mesh {
     /// χ = V − E + F over the vertices the triangles use.
     pub fn euler_characteristic(&self) -> i64 {
         let mut used = vec![false; self.positions.len()];
-        let mut edges = hashbrown::HashSet::with_capacity(self.triangles.len() * 3 / 2);
         for t in &self.triangles {
-            for i in 0..3 {
-                used[t[i] as usize] = true;
-                let (a, b) = (t[i], t[(i + 1) % 3]);
-                edges.insert((a.min(b), a.max(b)));
+            for &v in t {
+                used[v as usize] = true;
             }
         }
         let v = used.iter().filter(|&&u| u).count() as i64;
-        v - edges.len() as i64 + self.triangles.len() as i64
+        let edges = self.sorted_edges().chunk_by(|a, b| a.0 == b.0).count() as i64;
+        v - edges + self.triangles.len() as i64
     }
 
     /// Connected components (through shared vertices).
@@ -118,21 +116,75 @@ impl Mesh {
             .count()
     }
 
-    /// Wavefront OBJ with normals, through a temporary file renamed into place.
+    /// Wavefront OBJ with normals, through a temporary file renamed into place. The text
+    /// is formatted in parallel chunks, then written in order.
     pub fn write_obj(&self, path: &Path) -> Result<(), MeshError> {
+        use std::fmt::Write as _;
+        const CHUNK: usize = 1 << 16;
+        let vertices = self.positions.par_chunks(CHUNK).map(|chunk| {
+            let mut s = String::with_capacity(chunk.len() * 40);
+            for p in chunk {
+                let _ = writeln!(s, "v {} {} {}", p.x, p.y, p.z);
+            }
+            s
+        });
+        let normals = self.normals.par_chunks(CHUNK).map(|chunk| {
+            let mut s = String::with_capacity(chunk.len() * 40);
+            for n in chunk {
+                let _ = writeln!(s, "vn {} {} {}", n.x, n.y, n.z);
+            }
+            s
+        });
+        let faces = self.triangles.par_chunks(CHUNK).map(|chunk| {
+            let mut s = String::with_capacity(chunk.len() * 40);
+            for t in chunk {
+                let [a, b, c] = t.map(|i| i + 1);
+                let _ = writeln!(s, "f {a}//{a} {b}//{b} {c}//{c}");
+            }
+            s
+        });
+        let text: Vec<String> = vertices.chain(normals).chain(faces).collect();
         self.write_with(path, |w| {
             writeln!(w, "# activeskin {}", env!("CARGO_PKG_VERSION"))?;
-            for p in &self.positions {
-                writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
-            }
-            for n in &self.normals {
-                writeln!(w, "vn {} {} {}", n.x, n.y, n.z)?;
-            }
-            for t in &self.triangles {
-                let [a, b, c] = t.map(|i| i + 1);
-                writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
+            for part in &text {
+                w.write_all(part.as_bytes())?;
             }
             Ok(())
+        })
+    }
+
+    /// Binary little-endian PLY with normals, its body laid out in parallel.
+    pub fn write_ply(&self, path: &Path) -> Result<(), MeshError> {
+        let vertices: Vec<u8> = self
+            .positions
+            .par_iter()
+            .zip(&self.normals)
+            .flat_map_iter(|(p, n)| {
+                [p.x, p.y, p.z, n.x, n.y, n.z]
+                    .into_iter()
+                    .flat_map(f32::to_le_bytes)
+            })
+            .collect();
+        let faces: Vec<u8> = self
+            .triangles
+            .par_iter()
+            .flat_map_iter(|t| {
+                std::iter::once(3u8).chain(t.iter().flat_map(|&i| (i as i32).to_le_bytes()))
+            })
+            .collect();
+        self.write_with(path, |w| {
+            write!(
+                w,
+                "ply\nformat binary_little_endian 1.0\ncomment activeskin {}\n\
+                 element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+                 property float nx\nproperty float ny\nproperty float nz\n\
+                 element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+                env!("CARGO_PKG_VERSION"),
+                self.positions.len(),
+                self.triangles.len()
+            )?;
+            w.write_all(&vertices)?;
+            w.write_all(&faces)
         })
     }
 
@@ -180,34 +232,6 @@ impl Mesh {
             }
         }
         Ok(mesh)
-    }
-
-    /// Binary little-endian PLY with normals.
-    pub fn write_ply(&self, path: &Path) -> Result<(), MeshError> {
-        self.write_with(path, |w| {
-            write!(
-                w,
-                "ply\nformat binary_little_endian 1.0\ncomment activeskin {}\n\
-                 element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
-                 property float nx\nproperty float ny\nproperty float nz\n\
-                 element face {}\nproperty list uchar int vertex_indices\nend_header\n",
-                env!("CARGO_PKG_VERSION"),
-                self.positions.len(),
-                self.triangles.len()
-            )?;
-            for (p, n) in self.positions.iter().zip(&self.normals) {
-                for c in [p.x, p.y, p.z, n.x, n.y, n.z] {
-                    w.write_all(&c.to_le_bytes())?;
-                }
-            }
-            for t in &self.triangles {
-                w.write_all(&[3])?;
-                for &i in t {
-                    w.write_all(&(i as i32).to_le_bytes())?;
-                }
-            }
-            Ok(())
-        })
     }
 
     /// OBJ or PLY by the file's extension.

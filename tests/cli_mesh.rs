@@ -72,6 +72,24 @@ fn meshes_an_openvdb_sphere_like_volume_to_mesh() {
         (volume - exact / 3.0).abs() / (exact / 3.0) < 0.01,
         "{volume}"
     );
+    // --check adds the topology, and the OBJ writer (formatted in parallel chunks) gives
+    // the same mesh as the PLY one.
+    let obj = dir.path().join("sphere.obj");
+    let result = activeskin(&[
+        "mesh",
+        input.to_str().unwrap(),
+        obj.to_str().unwrap(),
+        "--check",
+    ]);
+    let said = String::from_utf8_lossy(&result.stdout);
+    assert!(
+        result.status.success() && said.contains("χ 2, 1 component(s), clean"),
+        "{said}"
+    );
+    let from_obj = common::read_mesh(&obj).unwrap();
+    let from_ply = common::read_mesh(&output).unwrap();
+    assert_eq!(from_obj.triangles, from_ply.triangles);
+    assert_eq!(from_obj.positions, from_ply.positions);
 }
 
 #[test]

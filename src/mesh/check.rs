@@ -4,7 +4,7 @@
 //! area, and wound outward (positive enclosed volume).
 
 use glam::DVec3;
-use hashbrown::{HashMap, HashSet};
+use rayon::prelude::*;
 
 use super::Mesh;
 
@@ -68,44 +68,57 @@ impl std::fmt::Display for MeshCheck {
 }
 
 impl Mesh {
-    /// Checks the mesh; see [`MeshCheck`].
+    /// Checks the mesh; see [`MeshCheck`]. Sorted lists rather than hash sets: a few
+    /// parallel sorts over millions of triangles.
     pub fn check(&self) -> MeshCheck {
-        let mut directed: HashMap<(u32, u32), u32> =
-            HashMap::with_capacity(self.triangles.len() * 3);
-        for t in &self.triangles {
-            for i in 0..3 {
-                *directed.entry((t[i], t[(i + 1) % 3])).or_insert(0) += 1;
-            }
-        }
-        let mut open: HashSet<(u32, u32)> = HashSet::new();
-        for (&(a, b), &n) in &directed {
-            if n != 1 || directed.get(&(b, a)) != Some(&1) {
-                open.insert((a.min(b), a.max(b)));
-            }
-        }
+        // An edge is closed when its triangles are exactly one pair running it opposite ways.
+        let open = self
+            .sorted_edges()
+            .chunk_by(|a, b| a.0 == b.0)
+            .filter(|run| !(run.len() == 2 && run[0].1 != run[1].1))
+            .count();
 
-        let mut by_index = HashSet::with_capacity(self.triangles.len());
-        let mut by_position = HashSet::with_capacity(self.triangles.len());
-        let mut coincident = 0;
-        let mut degenerate = 0;
-        for t in &self.triangles {
-            let mut sorted = *t;
-            sorted.sort_unstable();
-            let mut points = t.map(|i| self.positions[i as usize].to_array().map(f32::to_bits));
-            points.sort_unstable();
-            if !by_index.insert(sorted) | !by_position.insert(points) {
-                coincident += 1;
-            }
-            let [a, b, c] = t.map(|i| self.positions[i as usize].as_dvec3());
-            if (b - a).cross(c - a) == DVec3::ZERO {
-                degenerate += 1;
-            }
-        }
+        // Coincident: the same three indices, or the same three points, as a triangle
+        // before it.
+        let mut marked = vec![false; self.triangles.len()];
+        let mut by_index: Vec<([u32; 3], u32)> = self
+            .triangles
+            .par_iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let mut sorted = *t;
+                sorted.sort_unstable();
+                (sorted, i as u32)
+            })
+            .collect();
+        by_index.par_sort_unstable();
+        mark_repeats(&by_index, &mut marked);
+        let mut by_position: Vec<([[u32; 3]; 3], u32)> = self
+            .triangles
+            .par_iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let mut points = t.map(|v| self.positions[v as usize].to_array().map(f32::to_bits));
+                points.sort_unstable();
+                (points, i as u32)
+            })
+            .collect();
+        by_position.par_sort_unstable();
+        mark_repeats(&by_position, &mut marked);
+        let coincident = marked.iter().filter(|&&m| m).count();
+        let degenerate = self
+            .triangles
+            .par_iter()
+            .filter(|t| {
+                let [a, b, c] = t.map(|i| self.positions[i as usize].as_dvec3());
+                (b - a).cross(c - a) == DVec3::ZERO
+            })
+            .count();
 
         MeshCheck {
             triangles: self.triangles.len(),
-            open_edges: open.len(),
-            pinched_vertices: if open.is_empty() {
+            open_edges: open,
+            pinched_vertices: if open == 0 {
                 self.pinched_vertices()
             } else {
                 0
@@ -114,6 +127,22 @@ impl Mesh {
             degenerate,
             inward: !self.triangles.is_empty() && self.volume() <= 0.0,
         }
+    }
+
+    /// Every triangle's edges as (min·2³² + max, runs min → max), sorted.
+    pub(super) fn sorted_edges(&self) -> Vec<(u64, bool)> {
+        let mut edges: Vec<(u64, bool)> = self
+            .triangles
+            .par_iter()
+            .flat_map_iter(|t| {
+                (0..3).map(move |i| {
+                    let (a, b) = (t[i], t[(i + 1) % 3]);
+                    ((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), a < b)
+                })
+            })
+            .collect();
+        edges.par_sort_unstable();
+        edges
     }
 
     /// Vertices of a closed mesh whose triangles do not form exactly one fan.
@@ -151,6 +180,15 @@ impl Mesh {
                 steps != fan.len()
             })
             .count()
+    }
+}
+
+/// Marks every entry of a sorted list but the first of each run of equal keys.
+fn mark_repeats<K: PartialEq>(sorted: &[(K, u32)], marked: &mut [bool]) {
+    for run in sorted.chunk_by(|a, b| a.0 == b.0) {
+        for (_, i) in &run[1..] {
+            marked[*i as usize] = true;
+        }
     }
 }
 
