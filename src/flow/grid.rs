@@ -15,9 +15,28 @@ pub const EXTENSION_LAYERS: u32 = 3;
 
 /// A velocity grid, world units per second after `scale`.
 pub struct GridFlow {
-    voxels: HashMap<IVec3, Vec3>,
+    /// The voxels in blocks of 8³: a sample's eight corners are mostly one lookup.
+    blocks: HashMap<IVec3, Box<VelocityBlock>>,
     to_index: DMat4,
     staggered: bool,
+}
+
+/// 8³ voxels, OpenVDB's order, and which of them hold a velocity.
+struct VelocityBlock {
+    values: [Vec3; LEAF_VOXELS],
+    present: [u64; LEAF_VOXELS / 64],
+}
+
+#[inline]
+fn local_offset(l: IVec3) -> usize {
+    (l.x * 64 + l.y * 8 + l.z) as usize
+}
+
+impl VelocityBlock {
+    #[inline]
+    fn get(&self, o: usize) -> Option<Vec3> {
+        (self.present[o >> 6] >> (o & 63) & 1 == 1).then(|| self.values[o])
+    }
 }
 
 impl GridFlow {
@@ -59,8 +78,20 @@ impl GridFlow {
         if !to_index.is_finite() {
             return Err(format!("grid '{}' has a singular transform", grid.name));
         }
+        let mut blocks: HashMap<IVec3, Box<VelocityBlock>> = HashMap::new();
+        for (v, u) in voxels {
+            let block = blocks.entry(v >> 3).or_insert_with(|| {
+                Box::new(VelocityBlock {
+                    values: [Vec3::ZERO; LEAF_VOXELS],
+                    present: [0; LEAF_VOXELS / 64],
+                })
+            });
+            let o = local_offset(v & 7);
+            block.values[o] = u;
+            block.present[o >> 6] |= 1 << (o & 63);
+        }
         Ok(GridFlow {
-            voxels,
+            blocks,
             to_index,
             staggered: grid.staggered,
         })
@@ -73,9 +104,23 @@ impl GridFlow {
         let t = (q - base).as_vec3();
         let b = base.as_ivec3();
         let (mut sum, mut weight) = (0.0f32, 0.0f32);
+        let local = b & 7;
+        // All eight corners in one block unless the cell straddles a block face.
+        let one = (local.cmplt(IVec3::splat(7)).all())
+            .then(|| self.blocks.get(&(b >> 3)))
+            .flatten();
         for corner in 0..8 {
             let d = IVec3::new(corner & 1, corner >> 1 & 1, corner >> 2 & 1);
-            if let Some(v) = self.voxels.get(&(b + d)) {
+            let value = match one {
+                Some(block) => block.get(local_offset(local + d)),
+                None => {
+                    let v = b + d;
+                    self.blocks
+                        .get(&(v >> 3))
+                        .and_then(|block| block.get(local_offset(v & 7)))
+                }
+            };
+            if let Some(v) = value {
                 let w: f32 = [0, 1, 2]
                     .map(|a| if d[a] == 1 { t[a] } else { 1.0 - t[a] })
                     .iter()
