@@ -24,10 +24,13 @@ bench: deps
 	$(CARGO) bench --bench step
 
 # Tests run optimised: they solve and mesh real grids.
+# Lint first: in a full run after the test suite, cargo's fresh clippy-driver probe was
+# seen to fail (its `rustc -` input held another probe's stderr) and cache that failure in
+# target/.rustc_info.json; run first, it never did.
 test: deps
+	$(MAKE) lint
 	$(CARGO) test --release
 	$(CARGO) test --release --no-default-features --lib --tests
-	$(MAKE) lint
 
 # 10 000 solver steps against ever-changing targets (about a minute).
 soak: deps
