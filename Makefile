@@ -24,11 +24,11 @@ bench: deps
 	$(CARGO) bench --bench step
 
 # Tests run optimised: they solve and mesh real grids.
-# Lint first: in a full run after the test suite, cargo's fresh clippy-driver probe was
-# seen to fail (its `rustc -` input held another probe's stderr) and cache that failure in
-# target/.rustc_info.json; run first, it never did.
-test: deps
-	$(MAKE) lint
+# Lint as a prerequisite, not a recursive $(MAKE): run from a sub-make, cargo inherited
+# MAKEFLAGS' jobserver descriptors without the descriptors themselves, and its rustc
+# probe read another process's output as its source ("failed to run rustc to learn about
+# target-specific information", cached in target/.rustc_info.json).
+test: deps lint
 	$(CARGO) test --release
 	$(CARGO) test --release --no-default-features --lib --tests
 
