@@ -24,10 +24,7 @@ bench: deps
 	$(CARGO) bench --bench step
 
 # Tests run optimised: they solve and mesh real grids.
-# Lint as a prerequisite, not a recursive $(MAKE): run from a sub-make, cargo inherited
-# MAKEFLAGS' jobserver descriptors without the descriptors themselves, and its rustc
-# probe read another process's output as its source ("failed to run rustc to learn about
-# target-specific information", cached in target/.rustc_info.json).
+# Tests run optimised: they solve and mesh real grids. Lint first: it is the quick part.
 test: deps lint
 	$(CARGO) test --release
 	$(CARGO) test --release --no-default-features --lib --tests

@@ -13,11 +13,16 @@ pub fn temporary_path(path: &Path) -> PathBuf {
 }
 
 /// Runs `write` on a temporary path, then renames it to `path`. On any failure the
-/// temporary file is removed and `path` is left as it was.
+/// temporary file is removed and `path` is left as it was. A `path` that exists and is
+/// not a regular file — `/dev/null`, a named pipe, a device — is written in place: renamed
+/// over, `--stats /dev/null` run as root would have replaced the device with a file.
 pub fn write_atomically<F>(path: &Path, write: F) -> Result<(), String>
 where
     F: FnOnce(&Path) -> Result<(), String>,
 {
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+        return write(path);
+    }
     let tmp = temporary_path(path);
     let result = write(&tmp).and_then(|()| std::fs::rename(&tmp, path).map_err(|e| e.to_string()));
     if result.is_err() {
@@ -29,6 +34,40 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A named pipe stays a pipe, and its reader gets the bytes (as /dev/null must stay
+    /// a device).
+    #[test]
+    fn special_files_are_written_in_place_not_replaced() {
+        use std::os::unix::fs::FileTypeExt;
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("stats.pipe");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            eprintln!("no mkfifo here: skipped");
+            return;
+        }
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || std::fs::read(fifo).unwrap())
+        };
+        write_atomically(&fifo, |p| {
+            std::fs::write(p, b"frame 1").map_err(|e| e.to_string())
+        })
+        .unwrap();
+        assert_eq!(reader.join().unwrap(), b"frame 1");
+        assert!(std::fs::metadata(&fifo).unwrap().file_type().is_fifo());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        // /dev/null itself, when there is one: still a character device afterwards.
+        let null = Path::new("/dev/null");
+        if std::fs::metadata(null).is_ok_and(|m| m.file_type().is_char_device()) {
+            write_atomically(null, |p| std::fs::write(p, b"x").map_err(|e| e.to_string())).unwrap();
+            assert!(std::fs::metadata(null)
+                .unwrap()
+                .file_type()
+                .is_char_device());
+        }
+    }
 
     /// An injected failing writer (a disk that fills up half-way): the earlier file
     /// stays as it was and no temporary is left.
