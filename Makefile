@@ -23,7 +23,6 @@ demo: build
 bench: deps
 	$(CARGO) bench --bench step
 
-# Tests run optimised: they solve and mesh real grids.
 # Tests run optimised: they solve and mesh real grids. Lint first: it is the quick part.
 test: deps lint
 	$(CARGO) test --release
