@@ -1,6 +1,6 @@
 # Used for the figures in the README's "Simulation caches" section.
 # A ball of liquid dropped into a pool, baked by Mantaflow to OpenVDB (Blender, headless):
-# blender -b --python bake.py
+# blender -b --python examples/mantaflow_bake.py -- OUT_FOLDER
 import bpy
 import sys
 
