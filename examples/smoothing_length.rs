@@ -8,6 +8,7 @@
 use std::time::Instant;
 
 use activeskin::mesh::{mean_distance, Mesh};
+use activeskin::particles::flicker::jittered;
 use activeskin::skin::{Skin, SkinParams, SpeedParams};
 use activeskin::target::{fluid_iso, rest_density, Density, DensityGrid};
 use glam::{IVec3, Vec3};
@@ -22,25 +23,16 @@ fn main() {
         .filter(|p| p.length() <= 0.288)
         .collect();
     let true_radius = spacing * (3.0 * lattice.len() as f32 / (4.0 * std::f32::consts::PI)).cbrt();
-    let jittered = |frame: u64| -> Vec<Vec3> {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64 ^ frame.wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        let mut next = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 0.3 * r
-        };
-        lattice
-            .iter()
-            .map(|&p| p + Vec3::new(next(), next(), next()))
-            .collect()
-    };
     println!("{} particles, cell = r", lattice.len());
     println!("smoothing length   distance to the true surface   flicker   ms/frame");
     for l in [1.5f32, 2.0, 2.5, 3.0] {
         let target = |frame: u64| {
-            let density = Density::new(jittered(frame), 2.0 * l * r, fluid_iso(l))
-                .normalized(rest_density(l));
+            let density = Density::new(
+                jittered(&lattice, frame, 0.15 * r),
+                2.0 * l * r,
+                fluid_iso(l),
+            )
+            .normalized(rest_density(l));
             DensityGrid::rasterize(&density, r)
         };
         let params = SkinParams {

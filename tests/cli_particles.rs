@@ -65,15 +65,6 @@ fn activeskin(args: &[&str]) -> std::process::Output {
         .unwrap()
 }
 
-/// The stats line of each frame.
-fn stats(path: &Path) -> Vec<serde_json::Value> {
-    std::fs::read_to_string(path)
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect()
-}
-
 #[test]
 fn a_fluid_at_rest_keeps_its_volume_on_the_iso_density_surface() {
     let dir = common::scratch();
@@ -107,7 +98,7 @@ fn a_fluid_at_rest_keeps_its_volume_on_the_iso_density_surface() {
     );
     // The calibration: the fluid's volume is its particles' share of the lattice.
     let fluid = points.len() as f64 * f64::from(2.0 * RADIUS).powi(3);
-    for line in stats(&stats_file) {
+    for line in common::stats_lines(&stats_file) {
         let volume = line["volume"].as_f64().unwrap();
         assert!(
             (volume / fluid - 1.0).abs() < 0.02,
@@ -187,7 +178,7 @@ fn the_first_frame_starts_as_one_solid() {
         "{}",
         String::from_utf8_lossy(&result.stderr)
     );
-    let first = &stats(&stats_file)[0];
+    let first = &common::stats_lines(&stats_file)[0];
     assert_eq!(first["components"], 1, "{first}");
     assert_eq!(first["euler_characteristic"], 2, "{first}");
 }
@@ -241,10 +232,7 @@ fn liquid_that_appears_mid_shot_is_skinned_on_its_first_frame() {
         "{}",
         String::from_utf8_lossy(&result.stderr)
     );
-    let components: Vec<_> = stats(&stats_file)
-        .iter()
-        .map(|l| l["components"].as_u64().unwrap())
-        .collect();
+    let components = common::stats_field(&stats_file, "components");
     assert_eq!(&components[..5], [1, 1, 2, 2, 2]);
     assert!(dir.path().join("e.0006.obj").is_file());
 }

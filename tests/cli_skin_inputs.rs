@@ -123,15 +123,7 @@ fn empty_frames_are_written_and_the_skin_goes_on() {
         ],
     ));
     assert_ok(&result);
-    let components: Vec<u64> = std::fs::read_to_string(&stats)
-        .unwrap()
-        .lines()
-        .map(|l| {
-            serde_json::from_str::<serde_json::Value>(l).unwrap()["components"]
-                .as_u64()
-                .unwrap()
-        })
-        .collect();
+    let components = common::stats_field(&stats, "components");
     // Seeded at frame 3 (the liquid appears), gone once it drains (α = 24: within three
     // frames of 3 voxels a frame toward the background).
     assert_eq!(&components[..5], [0, 0, 1, 1, 1]);
@@ -205,15 +197,7 @@ fn mantaflow_phi_in_voxels_with_background_0_is_read_in_world_units() {
             units,
         ]);
         assert_ok(&result);
-        let substeps: u64 = std::fs::read_to_string(&stats)
-            .unwrap()
-            .lines()
-            .map(|l| {
-                serde_json::from_str::<serde_json::Value>(l).unwrap()["substeps"]
-                    .as_u64()
-                    .unwrap()
-            })
-            .sum();
+        let substeps: u64 = common::stats_field(&stats, "substeps").iter().sum();
         let mesh = common::read_mesh(&folder.join("skin.0003.obj")).unwrap();
         let off = mesh
             .positions

@@ -95,7 +95,7 @@ fn lattice_ball(spacing: f32) -> Vec<Vec3> {
 }
 
 /// Each point moved by up to ±`amplitude` per axis, repeatably for a given `seed`.
-fn jittered(points: &[Vec3], seed: u64, amplitude: f32) -> Vec<Vec3> {
+pub fn jittered(points: &[Vec3], seed: u64, amplitude: f32) -> Vec<Vec3> {
     let mut state = seed.wrapping_mul(0x9E3779B97F4A7C15) | 1;
     let mut next = move || {
         state = state

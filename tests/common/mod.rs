@@ -7,6 +7,27 @@ use std::process::{Command, Output};
 use activeskin::mesh::Mesh;
 use glam::Vec3;
 
+/// `field` of every line of a `--stats` file, as integers.
+pub fn stats_field(path: &Path, field: &str) -> Vec<u64> {
+    stats_lines(path)
+        .iter()
+        .map(|l| {
+            l[field]
+                .as_u64()
+                .unwrap_or_else(|| panic!("{field} in {l}"))
+        })
+        .collect()
+}
+
+/// The JSON object of every line of a `--stats` file.
+pub fn stats_lines(path: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a JSON object per line"))
+        .collect()
+}
+
 /// Runs the `activeskin` binary built for these tests.
 pub fn activeskin(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_activeskin"))

@@ -10,6 +10,8 @@ use std::process::Command;
 use std::time::Instant;
 
 use activeskin::mesh::{mean_distance, Mesh};
+use activeskin::particles::flicker::jittered;
+use activeskin::particles::write_ply;
 use anyhow::{bail, Context};
 use glam::{IVec3, Vec3};
 use serde_json::json;
@@ -32,36 +34,6 @@ fn lattice_ball(n: usize, r: f32) -> (Vec<Vec3>, f32) {
     // The fluid's true surface: the sphere of the particles' share of the lattice.
     let true_radius = spacing * (3.0 * points.len() as f32 / (4.0 * std::f32::consts::PI)).cbrt();
     (points, true_radius)
-}
-
-/// `points` each moved by up to ±0.15 r per axis, repeatably for `frame`.
-fn jittered(points: &[Vec3], r: f32, frame: u64) -> Vec<Vec3> {
-    let mut state = 0x9e37_79b9_7f4a_7c15u64 ^ frame.wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    let mut next = move || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 0.3 * r
-    };
-    points
-        .iter()
-        .map(|&p| p + Vec3::new(next(), next(), next()))
-        .collect()
-}
-
-fn write_ply(path: &Path, points: &[Vec3]) -> anyhow::Result<()> {
-    let mut bytes = format!(
-        "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
-        points.len()
-    )
-    .into_bytes();
-    bytes.reserve(points.len() * 12);
-    for p in points {
-        for c in p.to_array() {
-            bytes.extend_from_slice(&c.to_le_bytes());
-        }
-    }
-    std::fs::write(path, bytes).with_context(|| format!("{}: cannot write", path.display()))
 }
 
 /// splashsurf: `given`, on the PATH, in activeskin's cache, or installed there with cargo.
@@ -228,7 +200,7 @@ fn races(
         for f in 1..=frames {
             write_ply(
                 &dir.join(format!("cloud_{f:04}.ply")),
-                &jittered(&lattice, r, f as u64),
+                &jittered(&lattice, f as u64, 0.15 * r),
             )?;
         }
         // The first frame on its own (the skin started on it), then the whole run.
@@ -273,7 +245,7 @@ fn races(
     for f in 1..=frames {
         write_ply(
             &dir.join(format!("cloud_{f:04}.ply")),
-            &jittered(&lattice, r, 100 + f as u64),
+            &jittered(&lattice, 100 + f as u64, 0.15 * r),
         )?;
     }
     ours(&dir, frames, r)?;
