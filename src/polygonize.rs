@@ -11,7 +11,9 @@ mod edges;
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
-use crate::grid::{offset_coords, Block, BlockId, Halo, Potential, SparseGrid, BLOCK_DIM};
+use crate::grid::{
+    offset_coords, Block, BlockId, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES,
+};
 use crate::mesh::Mesh;
 use crate::volume::GridData;
 
@@ -212,7 +214,12 @@ fn cube_triangles(halo: &Halo, l: IVec3, crossings: &LocalCrossings, out: &mut V
 /// Meshes a grid copied from VDB, `value` mapping its values into [-1, 1] with the surface
 /// at 0 and negative inside; in index space, then carried by the grid's full transform.
 pub fn mesh_vdb(data: &GridData, value: impl Fn(f32) -> f32) -> Mesh {
-    let mut grid: SparseGrid<f32> = SparseGrid::from_vdb(data, value);
+    // Inside values are kept off -1, the band's edge, so that every inside node wakes its
+    // missing neighbours: liquid filling a dense grid to its last voxel (Mantaflow's `phi`
+    // against the domain's walls) is closed beyond it, not left open.
+    let mut grid: SparseGrid<f32> =
+        SparseGrid::from_vdb(data, |v| value(v).max(-1.0 + 1.0 / 1024.0));
+    close_beyond_stored(&mut grid);
     crate::grid::tube::upkeep(&mut grid);
     let index = IndexToWorld {
         origin: Vec3::ZERO,
@@ -238,10 +245,51 @@ pub fn mesh_vdb(data: &GridData, value: impl Fn(f32) -> f32) -> Mesh {
     mesh
 }
 
+/// Stores the outside blocks across a face, edge or corner from inside nodes, just short of
+/// the band's edge (+1), so that the tube reaches around a dense grid's faces, edges and
+/// corners and their cells are meshed.
+fn close_beyond_stored(grid: &mut SparseGrid<f32>) {
+    let faces_inside = |block: &Block<f32>| {
+        let mut faces = [[false; 2]; 3];
+        for (o, v) in block.values.iter().enumerate() {
+            if *v < 0.0 {
+                let l = offset_coords(o);
+                for axis in 0..3 {
+                    faces[axis][0] |= l[axis] == 0;
+                    faces[axis][1] |= l[axis] == BLOCK_DIM - 1;
+                }
+            }
+        }
+        faces
+    };
+    let wanted: Vec<IVec3> = grid
+        .blocks()
+        .par_iter()
+        .flat_map_iter(|block| {
+            let faces = faces_inside(block);
+            let coord = block.coord;
+            (0..27)
+                .map(|n| IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1))
+                .filter(move |d| {
+                    *d != IVec3::ZERO
+                        && (0..3)
+                            .filter(|&a| d[a] != 0)
+                            .all(|a| faces[a][usize::from(d[a] > 0)])
+                })
+                .map(move |d| coord + d)
+        })
+        .filter(|c| grid.find(*c).is_none() && !grid.inside_tiles().contains(c))
+        .collect();
+    for coord in wanted {
+        let id = grid.touch(coord);
+        grid.blocks_mut()[id.0 as usize].values = [1.0 - 1.0 / 1024.0; BLOCK_NODES];
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grid::{Fixed16, BLOCK_NODES};
+    use crate::grid::Fixed16;
     use hashbrown::HashMap;
 
     /// A repeatable rough potential on nodes `lo..hi`: a wavy field a third of a voxel

@@ -146,10 +146,15 @@ fn empty_frames_are_written_and_the_skin_goes_on() {
 /// A Mantaflow-style `phi`: a sphere's signed distance in voxels over a dense 64³ domain
 /// at Δx = 1/32, every voxel active, background 0.
 fn mantaflow_phi() -> GridData {
+    mantaflow_dense(|p| (p - Vec3::splat(1.0)).length() - 0.4)
+}
+
+/// `distance` (world units) as Mantaflow writes its `phi`: in voxels over a dense 64³
+/// domain at Δx = 1/32, every voxel active, background 0.
+fn mantaflow_dense(distance: impl Fn(Vec3) -> f32) -> GridData {
     let dx = 1.0 / 32.0;
     let transform = activeskin::volume::Transform::uniform(dx, [0.0; 3]);
     let mut grid = GridData::empty("phi", GridClass::LevelSet, 0.0, transform);
-    let centre = Vec3::splat(1.0);
     for x in 0..8 {
         for y in 0..8 {
             for z in 0..8 {
@@ -161,7 +166,7 @@ fn mantaflow_phi() -> GridData {
                             (origin[1] + ((o >> 3) & 7)) as f32,
                             (origin[2] + (o & 7)) as f32,
                         );
-                        ((ijk * dx as f32 - centre).length() - 0.4) / dx as f32
+                        distance(ijk * dx as f32) / dx as f32
                     })
                     .collect();
                 grid.push_leaf(origin, &values, [u64::MAX; 8]);
@@ -169,6 +174,68 @@ fn mantaflow_phi() -> GridData {
         }
     }
     grid
+}
+
+/// A pool filling the bottom of a dense domain touches its floor and four walls: `phi` is
+/// negative up to the last voxel there. Beyond the voxels is outside, so both the mesh of
+/// `phi` and the skin close the liquid within a voxel past the last voxels (where depends
+/// on the distances stored there: it is interpolated toward the background).
+#[test]
+fn a_pool_against_a_dense_domains_walls_is_closed() {
+    let dir = common::scratch();
+    for frame in 1..=2 {
+        write_grid(
+            &dir.path().join(format!("fluid_data_{frame:04}.vdb")),
+            &mantaflow_dense(|p| p.z - 0.5),
+        );
+    }
+    // The box, up to z = 0.5, closed at the last voxels (0 and 63) or one voxel beyond.
+    let dx = 1.0 / 32.0;
+    let (least, most) = (
+        (63.0 * dx) * (63.0 * dx) * 0.5,
+        (65.0 * dx) * (65.0 * dx) * (0.5 + dx),
+    );
+    let volume_of = |mesh: &activeskin::mesh::Mesh| mesh.area_and_volume().1;
+
+    let phi = dir.path().join("fluid_data_0001.vdb");
+    let mesh_path = dir.path().join("phi.obj");
+    let result = activeskin(&[
+        "mesh",
+        phi.to_str().unwrap(),
+        mesh_path.to_str().unwrap(),
+        "--check",
+    ]);
+    assert_ok(&result);
+    let mesh = common::read_mesh(&mesh_path).unwrap();
+    assert!(mesh.check().is_clean(), "{}", mesh.check());
+    assert_eq!(mesh.euler_characteristic(), 2);
+    let volume = volume_of(&mesh);
+    assert!(
+        (least..most).contains(&volume),
+        "meshed phi encloses {volume}, the box {least}…{most}"
+    );
+
+    let target = dir.path().join("fluid_data_####.vdb");
+    let skin = dir.path().join("skin.####.obj");
+    let result = activeskin(&[
+        "skin",
+        "--target",
+        target.to_str().unwrap(),
+        "--mesh",
+        skin.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_ok(&result);
+    for frame in 1..=2 {
+        let mesh = common::read_mesh(&dir.path().join(format!("skin.{frame:04}.obj"))).unwrap();
+        assert!(mesh.check().is_clean(), "frame {frame}: {}", mesh.check());
+        assert_eq!(mesh.euler_characteristic(), 2);
+        let volume = volume_of(&mesh);
+        assert!(
+            (least..most).contains(&volume),
+            "frame {frame}: the skin encloses {volume}, the box {least}…{most}"
+        );
+    }
 }
 
 #[test]

@@ -7,7 +7,7 @@ use activeskin::polygonize::mesh_vdb;
 use activeskin::vdb::Grid;
 use activeskin::volume::GridClass;
 
-use activeskin::frames::check_usable;
+use activeskin::frames::{background_outside, check_usable};
 
 #[derive(clap::Args)]
 pub struct MeshArgs {
@@ -29,8 +29,14 @@ pub struct MeshArgs {
 
 pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
     let path = &args.input;
-    let data = Grid::read(path, args.grid.as_deref())?.to_data()?;
+    let mut data = Grid::read(path, args.grid.as_deref())?.to_data()?;
     check_usable(path, &data)?;
+    if data.class == GridClass::LevelSet && args.iso.is_none() {
+        // As `skin` reads it: liquid touching a dense domain's walls is closed there.
+        if let Some(note) = background_outside(&mut data) {
+            eprintln!("{note}");
+        }
+    }
     // Only signs and linear interpolation matter to the polygonizer: scale into [-1, 1].
     let (iso, sign) = match (data.class, args.iso) {
         (_, Some(iso)) if iso.is_finite() => (iso, -1.0f32),

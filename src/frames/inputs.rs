@@ -180,24 +180,34 @@ fn to_world_units(data: &mut GridData, units: TargetUnits) -> Option<String> {
     if scale != 1.0 {
         units::rescale(data, scale);
     }
-    if data.background <= 0.0 {
-        // Beyond a dense grid's voxels: outside, as far as its farthest stored distance.
-        let outside = data
-            .leaf_values
-            .iter()
-            .chain(data.tiles.iter().map(|t| &t.value))
-            .fold(3.0 * dx, |m, &v| m.max(v));
-        let line = format!(
-            "grid '{name}': background {} taken as {outside} (outside) beyond its voxels",
-            data.background
-        );
-        data.background = outside;
+    if let Some(line) = background_outside(data) {
         note = Some(match note {
             Some(n) => format!("{n}; {line}"),
             None => line,
         });
     }
     note
+}
+
+/// A level set whose background is not outside (0, as Mantaflow's dense `phi`): beyond its
+/// voxels is taken as outside, as far as its farthest stored distance, so that liquid
+/// touching the domain's walls is closed there; says so.
+pub fn background_outside(data: &mut GridData) -> Option<String> {
+    if data.background > 0.0 {
+        return None;
+    }
+    let dx = data.transform.voxel_size() as f32;
+    let outside = data
+        .leaf_values
+        .iter()
+        .chain(data.tiles.iter().map(|t| &t.value))
+        .fold(3.0 * dx, |m, &v| m.max(v));
+    let line = format!(
+        "grid '{}': background {} taken as {outside} (outside) beyond its voxels",
+        data.name, data.background
+    );
+    data.background = outside;
+    Some(line)
 }
 
 /// What any grid we sample or mesh must be: uniform voxels and finite values.
