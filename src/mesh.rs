@@ -155,23 +155,6 @@ impl Mesh {
 
     /// Binary little-endian PLY with normals, its body laid out in parallel.
     pub fn write_ply(&self, path: &Path) -> Result<(), MeshError> {
-        let vertices: Vec<u8> = self
-            .positions
-            .par_iter()
-            .zip(&self.normals)
-            .flat_map_iter(|(p, n)| {
-                [p.x, p.y, p.z, n.x, n.y, n.z]
-                    .into_iter()
-                    .flat_map(f32::to_le_bytes)
-            })
-            .collect();
-        let faces: Vec<u8> = self
-            .triangles
-            .par_iter()
-            .flat_map_iter(|t| {
-                std::iter::once(3u8).chain(t.iter().flat_map(|&i| (i as i32).to_le_bytes()))
-            })
-            .collect();
         self.write_with(path, |w| {
             write!(
                 w,
@@ -183,8 +166,19 @@ impl Mesh {
                 self.positions.len(),
                 self.triangles.len()
             )?;
-            w.write_all(&vertices)?;
-            w.write_all(&faces)
+            let mut buffer = Vec::new();
+            write_records(w, &mut buffer, &self.positions, 24, |i, p, out| {
+                let n = self.normals[i];
+                for (k, v) in [p.x, p.y, p.z, n.x, n.y, n.z].into_iter().enumerate() {
+                    out[4 * k..4 * k + 4].copy_from_slice(&v.to_le_bytes());
+                }
+            })?;
+            write_records(w, &mut buffer, &self.triangles, 13, |_, t, out| {
+                out[0] = 3;
+                for (k, &i) in t.iter().enumerate() {
+                    out[1 + 4 * k..5 + 4 * k].copy_from_slice(&(i as i32).to_le_bytes());
+                }
+            })
         })
     }
 
@@ -268,6 +262,28 @@ impl Mesh {
             message,
         })
     }
+}
+
+/// Writes `items` as fixed-size binary records of `size` bytes, each laid out by `record`
+/// (index, item, its bytes), a chunk at a time in parallel into the reused `buffer`.
+fn write_records<T: Sync>(
+    w: &mut dyn Write,
+    buffer: &mut Vec<u8>,
+    items: &[T],
+    size: usize,
+    record: impl Fn(usize, &T, &mut [u8]) + Sync,
+) -> std::io::Result<()> {
+    const CHUNK: usize = 1 << 16;
+    for (c, chunk) in items.chunks(CHUNK).enumerate() {
+        buffer.resize(chunk.len() * size, 0);
+        buffer
+            .par_chunks_mut(size)
+            .zip(chunk)
+            .enumerate()
+            .for_each(|(i, (out, item))| record(c * CHUNK + i, item, out));
+        w.write_all(buffer)?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -12,7 +12,7 @@ use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::grid::{
-    offset_coords, Block, BlockId, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES,
+    node_offset, offset_coords, Block, BlockId, Halo, Potential, SparseGrid, BLOCK_DIM, HALO_DIM,
 };
 use crate::mesh::Mesh;
 use crate::volume::GridData;
@@ -35,6 +35,8 @@ struct BlockWork {
 #[derive(Default)]
 pub struct Polygonizer {
     work: Vec<BlockWork>,
+    /// Each block's sides, kept from pass 1 for pass 2's cubes.
+    sides: Vec<InsideRows>,
 }
 
 /// Index space → world space.
@@ -76,37 +78,61 @@ impl Polygonizer {
         crossings
             .tables
             .resize_with(grid.block_count(), EdgeTable::default);
+        self.sides
+            .resize_with(grid.block_count(), InsideRows::default);
 
         // Pass 1: the crossed edges owned by each block (lower node inside the block).
         for_each_block(
             self.work
                 .par_iter_mut()
-                .zip(crossings.tables.par_iter_mut()),
+                .zip(crossings.tables.par_iter_mut())
+                .zip(self.sides.par_iter_mut()),
             grid,
-            |(work, table), block, halo, _| {
+            |((work, table), sides), block, halo, _| {
                 work.points.clear();
                 work.positions.clear();
                 work.normals.clear();
                 *table = EdgeTable::default();
                 let base = block.coord * BLOCK_DIM;
-                for offset in block.active_offsets() {
-                    let l = offset_coords(offset);
-                    let fa = halo.at(l.x, l.y, l.z);
-                    for axis in 0..3 {
-                        let m = l + IVec3::AXES[axis];
-                        let fb = halo.at(m.x, m.y, m.z);
-                        if inside(fa) == inside(fb) {
-                            continue;
+                *sides = InsideRows::of(halo);
+                let rows = &*sides;
+                let count: u32 = active_rows(block)
+                    .map(|(x, y, active)| {
+                        let r = rows.at(x, y);
+                        [rows.at(x + 1, y), rows.at(x, y + 1), r >> 1]
+                            .map(|n| (active & (r ^ n) >> 1).count_ones())
+                            .iter()
+                            .sum::<u32>()
+                    })
+                    .sum();
+                work.points.reserve(count as usize);
+                work.positions.reserve(count as usize);
+                work.normals.reserve(count as usize);
+                for (x, y, active) in active_rows(block) {
+                    let r = rows.at(x, y);
+                    // Bit z: the edge from node z along x, y, z changes side.
+                    let crossed = [
+                        (r ^ rows.at(x + 1, y)) >> 1,
+                        (r ^ rows.at(x, y + 1)) >> 1,
+                        (r ^ (r >> 1)) >> 1,
+                    ];
+                    for z in bits(active & (crossed[0] | crossed[1] | crossed[2])) {
+                        let l = IVec3::new(x, y, z);
+                        let offset = node_offset(x, y, z);
+                        let fa = halo.at(l.x, l.y, l.z);
+                        for axis in (0..3).filter(|&a| crossed[a] >> z & 1 == 1) {
+                            let m = l + IVec3::AXES[axis];
+                            let fb = halo.at(m.x, m.y, m.z);
+                            let t = fa / (fa - fb);
+                            let along = IVec3::AXES[axis].as_vec3();
+                            let at = |t: f32| xf.apply(base.as_vec3() + l.as_vec3() + along * t);
+                            let g = gradient(halo, l).lerp(gradient(halo, m), t);
+                            table.mark(offset, axis);
+                            work.points.push(at(t));
+                            work.positions
+                                .push(at(t.clamp(VERTEX_MARGIN, 1.0 - VERTEX_MARGIN)));
+                            work.normals.push(g.normalize_or_zero());
                         }
-                        let t = fa / (fa - fb);
-                        let along = IVec3::AXES[axis].as_vec3();
-                        let at = |t: f32| xf.apply(base.as_vec3() + l.as_vec3() + along * t);
-                        let g = gradient(halo, l).lerp(gradient(halo, m), t);
-                        table.mark(offset, axis);
-                        work.points.push(at(t));
-                        work.positions
-                            .push(at(t.clamp(VERTEX_MARGIN, 1.0 - VERTEX_MARGIN)));
-                        work.normals.push(g.normalize_or_zero());
                     }
                 }
             },
@@ -116,30 +142,118 @@ impl Polygonizer {
         mesh.clear();
         crossings.points.clear();
         let mut first = 0;
-        for (work, table) in self.work.iter().zip(crossings.tables.iter_mut()) {
+        for table in crossings.tables.iter_mut() {
             first = table.number_from(first);
-            crossings.points.extend_from_slice(&work.points);
-            mesh.positions.extend_from_slice(&work.positions);
-            mesh.normals.extend_from_slice(&work.normals);
         }
+        let work = &self.work;
+        concat(&mut crossings.points, work.iter().map(|w| &w.points[..]));
+        concat(&mut mesh.positions, work.iter().map(|w| &w.positions[..]));
+        concat(&mut mesh.normals, work.iter().map(|w| &w.normals[..]));
 
-        // Pass 2: the cubes whose lower corner is an active node of the block.
+        // Pass 2: the cubes whose lower corner is an active node of the block, from the
+        // sides pass 1 kept (no halo to gather again).
         let shared = &*crossings;
-        for_each_block(
-            self.work.par_iter_mut(),
-            grid,
-            |work, block, halo, around| {
+        self.work
+            .par_iter_mut()
+            .zip(self.sides.par_iter())
+            .zip(grid.blocks().par_iter())
+            .for_each(|((work, rows), block)| {
                 work.triangles.clear();
-                let local = shared.around(around);
-                for offset in block.active_offsets() {
-                    cube_triangles(halo, offset_coords(offset), &local, &mut work.triangles);
+                if block.active_count() == 0 {
+                    return;
                 }
-            },
+                let local = shared.around(&grid.neighbourhood(block.coord));
+                for (x, y, active) in active_rows(block) {
+                    let corners = [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)];
+                    let all = corners
+                        .iter()
+                        .fold(u16::MAX, |a, &(i, j)| a & rows.at(i, j));
+                    let any = corners.iter().fold(0, |a, &(i, j)| a | rows.at(i, j));
+                    // Bit z: the cube from node z has corners on both sides.
+                    let uniform = (all & (all >> 1)) | (!any & !(any >> 1));
+                    for z in bits(active & (!uniform >> 1)) {
+                        cube_triangles(rows, IVec3::new(x, y, z), &local, &mut work.triangles);
+                    }
+                }
+            });
+        concat(
+            &mut mesh.triangles,
+            self.work.iter().map(|w| &w.triangles[..]),
         );
-        for work in &self.work {
-            mesh.triangles.extend_from_slice(&work.triangles);
-        }
     }
+}
+
+/// `out` becomes the `parts` one after another, copied in parallel (a mesh of millions of
+/// triangles is gathered from every block's work).
+fn concat<'a, T: Copy + Send + Sync + 'a>(out: &mut Vec<T>, parts: impl Iterator<Item = &'a [T]>) {
+    let parts: Vec<&[T]> = parts.collect();
+    let total = parts.iter().map(|p| p.len()).sum();
+    out.clear();
+    out.reserve(total);
+    let mut rest = &mut out.spare_capacity_mut()[..total];
+    let mut pieces = Vec::with_capacity(parts.len());
+    for part in &parts {
+        let (piece, tail) = std::mem::take(&mut rest).split_at_mut(part.len());
+        pieces.push(piece);
+        rest = tail;
+    }
+    pieces.into_par_iter().zip(parts).for_each(|(piece, part)| {
+        for (slot, &value) in piece.iter_mut().zip(part) {
+            slot.write(value);
+        }
+    });
+    // SAFETY: the pieces tile the first `total` spare slots, and every slot was written.
+    unsafe { out.set_len(total) };
+}
+
+/// Which nodes of a halo are inside, one row along z at a time: bit k + 1 for local z = k.
+#[derive(Clone)]
+struct InsideRows([u16; HALO_DIM * HALO_DIM]);
+
+impl Default for InsideRows {
+    fn default() -> Self {
+        InsideRows([0; HALO_DIM * HALO_DIM])
+    }
+}
+
+impl InsideRows {
+    fn of(halo: &Halo) -> Self {
+        let mut rows = [0u16; HALO_DIM * HALO_DIM];
+        for (bits, row) in rows.iter_mut().zip(halo.values.chunks_exact(HALO_DIM)) {
+            *bits = row
+                .iter()
+                .enumerate()
+                .fold(0, |b, (k, &v)| b | u16::from(inside(v)) << k);
+        }
+        InsideRows(rows)
+    }
+
+    /// The row of local (x, y), each in -1..=8.
+    #[inline]
+    fn at(&self, x: i32, y: i32) -> u16 {
+        self.0[(x + 1) as usize * HALO_DIM + (y + 1) as usize]
+    }
+}
+
+/// A block's rows along z with an active node: (x, y, bit z for each active node).
+fn active_rows<P: Potential>(block: &Block<P>) -> impl Iterator<Item = (i32, i32, u16)> + '_ {
+    (0..BLOCK_DIM).flat_map(move |x| {
+        (0..BLOCK_DIM).filter_map(move |y| {
+            let row = (block.active[x as usize] >> (8 * y)) as u16 & 0xFF;
+            (row != 0).then_some((x, y, row))
+        })
+    })
+}
+
+/// The set bits of `word`, lowest first.
+fn bits(mut word: u16) -> impl Iterator<Item = i32> {
+    std::iter::from_fn(move || {
+        (word != 0).then(|| {
+            let b = word.trailing_zeros() as i32;
+            word &= word - 1;
+            b
+        })
+    })
 }
 
 /// Visits each block of `grid` with its item, its halo (gathered only when the block has
@@ -177,13 +291,16 @@ fn gradient(halo: &Halo, l: IVec3) -> Vec3 {
 }
 
 /// Triangles of the cube with lower corner `l` (local), from its sign case.
-fn cube_triangles(halo: &Halo, l: IVec3, crossings: &LocalCrossings, out: &mut Vec<[u32; 3]>) {
+fn cube_triangles(
+    rows: &InsideRows,
+    l: IVec3,
+    crossings: &LocalCrossings,
+    out: &mut Vec<[u32; 3]>,
+) {
     let mut signs = 0u8;
     for c in 0..8 {
         let p = l + corner_offset(c);
-        if inside(halo.at(p.x, p.y, p.z)) {
-            signs |= 1 << c;
-        }
+        signs |= ((rows.at(p.x, p.y) >> (p.z + 1)) as u8 & 1) << c;
     }
     if signs == 0 || signs == 0xFF {
         return;
@@ -214,13 +331,14 @@ fn cube_triangles(halo: &Halo, l: IVec3, crossings: &LocalCrossings, out: &mut V
 /// Meshes a grid copied from VDB, `value` mapping its values into [-1, 1] with the surface
 /// at 0 and negative inside; in index space, then carried by the grid's full transform.
 pub fn mesh_vdb(data: &GridData, value: impl Fn(f32) -> f32) -> Mesh {
-    // Inside values are kept off -1, the band's edge, so that every inside node wakes its
-    // missing neighbours: liquid filling a dense grid to its last voxel (Mantaflow's `phi`
-    // against the domain's walls) is closed beyond it, not left open.
-    let mut grid: SparseGrid<f32> =
-        SparseGrid::from_vdb(data, |v| value(v).max(-1.0 + 1.0 / 1024.0));
-    close_beyond_stored(&mut grid);
-    crate::grid::tube::upkeep(&mut grid);
+    let mut grid: SparseGrid<f32> = SparseGrid::from_vdb(data, value);
+    // Not a skin's tube: the grid's values may jump from deep inside to its background
+    // (liquid filling a dense grid to its walls, as Mantaflow's `phi`), so every node of
+    // every block is visited, and the blocks beyond such jumps are stored.
+    store_blocks_across_crossings(&mut grid);
+    grid.blocks_mut()
+        .iter_mut()
+        .for_each(|b| b.active = [u64::MAX; 8]);
     let index = IndexToWorld {
         origin: Vec3::ZERO,
         dx: 1.0,
@@ -245,51 +363,56 @@ pub fn mesh_vdb(data: &GridData, value: impl Fn(f32) -> f32) -> Mesh {
     mesh
 }
 
-/// Stores the outside blocks across a face, edge or corner from inside nodes, just short of
-/// the band's edge (+1), so that the tube reaches around a dense grid's faces, edges and
-/// corners and their cells are meshed.
-fn close_beyond_stored(grid: &mut SparseGrid<f32>) {
-    let faces_inside = |block: &Block<f32>| {
-        let mut faces = [[false; 2]; 3];
+/// Stores every unstored block across a face, edge or corner from nodes of the other side
+/// (an outside tile next to inside nodes, as beyond a dense grid's walls; an inside tile
+/// next to outside nodes), so that every crossed cube lies in stored blocks.
+fn store_blocks_across_crossings(grid: &mut SparseGrid<f32>) {
+    // Per side (inside, outside), per axis, per face (low, high): a node there.
+    let faces = |block: &Block<f32>| {
+        let mut faces = [[[false; 2]; 3]; 2];
         for (o, v) in block.values.iter().enumerate() {
-            if *v < 0.0 {
-                let l = offset_coords(o);
-                for axis in 0..3 {
-                    faces[axis][0] |= l[axis] == 0;
-                    faces[axis][1] |= l[axis] == BLOCK_DIM - 1;
-                }
+            let l = offset_coords(o);
+            let side = &mut faces[usize::from(!inside(*v))];
+            for axis in 0..3 {
+                side[axis][0] |= l[axis] == 0;
+                side[axis][1] |= l[axis] == BLOCK_DIM - 1;
             }
         }
         faces
     };
-    let wanted: Vec<IVec3> = grid
+    let stored = &*grid;
+    let wanted: Vec<IVec3> = stored
         .blocks()
         .par_iter()
         .flat_map_iter(|block| {
-            let faces = faces_inside(block);
+            let faces = faces(block);
             let coord = block.coord;
             (0..27)
                 .map(|n| IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1))
-                .filter(move |d| {
-                    *d != IVec3::ZERO
-                        && (0..3)
-                            .filter(|&a| d[a] != 0)
-                            .all(|a| faces[a][usize::from(d[a] > 0)])
+                .filter(|d| *d != IVec3::ZERO)
+                .filter_map(move |d| {
+                    let c = coord + d;
+                    if stored.find(c).is_some() {
+                        return None;
+                    }
+                    // Nodes of the other side than the tile's, on every face toward it.
+                    let other = &faces[usize::from(stored.inside_tiles().contains(&c))];
+                    (0..3)
+                        .filter(|&a| d[a] != 0)
+                        .all(|a| other[a][usize::from(d[a] > 0)])
+                        .then_some(c)
                 })
-                .map(move |d| coord + d)
         })
-        .filter(|c| grid.find(*c).is_none() && !grid.inside_tiles().contains(c))
         .collect();
     for coord in wanted {
-        let id = grid.touch(coord);
-        grid.blocks_mut()[id.0 as usize].values = [1.0 - 1.0 / 1024.0; BLOCK_NODES];
+        grid.touch(coord);
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grid::Fixed16;
+    use crate::grid::{Fixed16, BLOCK_NODES};
     use hashbrown::HashMap;
 
     /// A repeatable rough potential on nodes `lo..hi`: a wavy field a third of a voxel
