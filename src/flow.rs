@@ -3,28 +3,42 @@
 //! velocity grids read from simulation caches.
 
 mod grid;
+mod nodes;
 pub mod scale;
 
 use glam::Vec3;
 
 pub use grid::{GridFlow, EXTENSION_LAYERS};
+pub use nodes::OnNodes;
 
 use crate::target::{Aabb, Target};
 
 /// A velocity field, world units per second.
 pub trait Flow: Sync {
     fn velocity(&self, p: Vec3) -> Vec3;
+
+    /// Whether a sample costs more than reading eight stored nodes (a velocity grid's
+    /// hashed lookups): the skin then samples it once per frame at its nodes ([`OnNodes`]).
+    fn costly(&self) -> bool {
+        false
+    }
 }
 
 impl<F: Flow + ?Sized> Flow for &F {
     fn velocity(&self, p: Vec3) -> Vec3 {
         (**self).velocity(p)
     }
+    fn costly(&self) -> bool {
+        (**self).costly()
+    }
 }
 
 impl<F: Flow + ?Sized + Send> Flow for std::sync::Arc<F> {
     fn velocity(&self, p: Vec3) -> Vec3 {
         (**self).velocity(p)
+    }
+    fn costly(&self) -> bool {
+        (**self).costly()
     }
 }
 
@@ -69,5 +83,8 @@ pub struct Mean<'a>(pub &'a dyn Flow, pub &'a dyn Flow);
 impl Flow for Mean<'_> {
     fn velocity(&self, p: Vec3) -> Vec3 {
         0.5 * (self.0.velocity(p) + self.1.velocity(p))
+    }
+    fn costly(&self) -> bool {
+        self.0.costly() || self.1.costly()
     }
 }

@@ -16,7 +16,7 @@ mod timestep;
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
-use crate::flow::{Backtracked, Flow};
+use crate::flow::{Backtracked, Flow, OnNodes};
 use crate::grid::{offset_coords, Halo, Potential, Precision, SparseGrid, BLOCK_DIM, BLOCK_NODES};
 use crate::mesh::Mesh;
 use crate::polygonize::{Crossings, IndexToWorld, Polygonizer};
@@ -222,7 +222,17 @@ impl<P: Potential> Skin<P> {
     ) -> StepStats {
         let mut remaining = duration;
         let mut substeps = 0;
+        let mut on_nodes = flow
+            .filter(|f| f.costly())
+            .map(|f| OnNodes::new(f, self.xf));
         while remaining > 0.0 {
+            let flow = match &mut on_nodes {
+                Some(nodes) => {
+                    nodes.cover(&self.grid);
+                    Some(&*nodes as &dyn Flow)
+                }
+                None => flow,
+            };
             let (v_max, u_max) = match flow {
                 Some(flow) => {
                     let ahead = Backtracked {

@@ -138,6 +138,10 @@ impl GridFlow {
 }
 
 impl Flow for GridFlow {
+    fn costly(&self) -> bool {
+        true
+    }
+
     fn velocity(&self, p: Vec3) -> Vec3 {
         let q = self.to_index.transform_point3(p.as_dvec3());
         Vec3::from_array(std::array::from_fn(|c| {
