@@ -4,7 +4,7 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all deps build demo test bench lint soak fuzz clean
+.PHONY: all deps build demo test farm-test bench lint soak fuzz clean
 
 all: build
 
@@ -27,6 +27,13 @@ bench: deps
 test: deps lint
 	$(CARGO) test --release
 	$(CARGO) test --release --no-default-features --lib --tests
+	$(MAKE) farm-test
+
+# A one-node Slurm cluster started by the test itself (root; Debian's slurm-wlm and
+# munge, installed when missing): a 4-chunk job array against the sequential run.
+farm-test: deps
+	@bash .ci/deps slurm-wlm munge
+	$(CARGO) test --release --test farm -- --ignored --nocapture
 
 # 10 000 solver steps against ever-changing targets (about a minute).
 soak: deps

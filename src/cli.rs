@@ -10,6 +10,7 @@ macro_rules! usage {
 mod args;
 mod bench;
 mod demo;
+mod farm;
 mod info;
 mod mesh;
 mod morph;
@@ -59,6 +60,16 @@ enum Command {
     Demo(demo::DemoArgs),
     /// Mesh a level set (or a fog volume at --iso) with activeskin's polygonizer.
     Mesh(mesh::MeshArgs),
+    /// Cut a `skin` or `particles` run into chunks of frames, each warmed up, and submit
+    /// them as one Slurm job array (or print the batch script).
+    Farm(farm::FarmArgs),
+}
+
+/// The command line with clap's settings, for the process and for `farm`'s inner command.
+fn command_line() -> clap::Command {
+    // `--alpha -1` is a bad value, not an unknown option: it reaches the commands' own
+    // checks and their one-line usage errors.
+    Cli::command().mut_subcommands(|c| c.allow_negative_numbers(true))
 }
 
 /// A mistake in the command line itself: a bad option value, a pattern without a frame
@@ -79,10 +90,7 @@ pub fn pattern_arg(spec: &str) -> anyhow::Result<activeskin::sequence::FramePatt
 
 /// Runs the command line; exit code 0 on success, 1 on bad data, 2 on bad usage.
 pub fn run() -> ExitCode {
-    // `--alpha -1` is a bad value, not an unknown option: it reaches the commands' own
-    // checks and their one-line usage errors.
-    let command = Cli::command().mut_subcommands(|c| c.allow_negative_numbers(true));
-    let cli = match Cli::from_arg_matches(&command.get_matches()) {
+    let cli = match Cli::from_arg_matches(&command_line().get_matches()) {
         Ok(cli) => cli,
         Err(e) => e.exit(),
     };
@@ -96,6 +104,7 @@ pub fn run() -> ExitCode {
         Command::Render(args) => render::run(&args),
         Command::Validate(args) => validate::run(&args),
         Command::Bench(args) => bench::run(&args),
+        Command::Farm(args) => farm::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

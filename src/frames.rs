@@ -73,18 +73,22 @@ impl<'t> FrameInput<'t> {
 
 /// Runs frames `first..=last`: frame `first` is the starting skin, each later frame
 /// advances 1/`fps` seconds toward `input_at(frame)`'s target, carried by the mean of the
-/// velocities of the frames at both ends of the interval where both are known. With
-/// `outputs.resume()`, starts after the last skin VDB already written.
+/// velocities of the frames at both ends of the interval where both are known. Frames
+/// before `write_from` are a warm-up (a farm chunk converging to the sequential run) and
+/// write nothing. With `outputs.resume()`, starts after the last skin VDB already written
+/// from `write_from` on.
 pub fn run<'t>(
     (first, last): (i64, i64),
+    write_from: i64,
     mut skin: AnySkin,
     fps: f64,
     outputs: &mut Outputs,
     mut input_at: impl FnMut(i64) -> Result<FrameInput<'t>, FrameError>,
 ) -> Result<(), FrameError> {
     let mut start = first;
+    outputs.frame_camera(skin.mesh());
     if outputs.resume() {
-        if let Some((frame, path)) = (first..=last)
+        if let Some((frame, path)) = (write_from.max(first)..=last)
             .rev()
             .find_map(|f| outputs.written_skin(f).map(|p| (f, p)))
         {
@@ -100,7 +104,7 @@ pub fn run<'t>(
             })?;
             skin.set_time((frame - first) as f64 / fps);
             outputs.resume_stats(frame + 1)?;
-            outputs.skip((frame - first + 1) as u64);
+            outputs.skip((frame - write_from.max(first) + 1) as u64);
             start = frame + 1;
         }
     }
@@ -139,6 +143,9 @@ pub fn run<'t>(
             substeps
         };
         let level_set = skin.settle();
+        if frame < write_from {
+            continue;
+        }
         let stats = crate::skin::StepStats {
             substeps,
             ..skin.stats()

@@ -35,6 +35,25 @@ pub struct PhysicsArgs {
     /// Storage of the potential: f32, or fixed16 (half the memory).
     #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
     pub precision: PrecisionArg,
+    /// Start this many frames before --frames (not before the sequence's first frame),
+    /// advancing without writing: a farm chunk then meets the sequential run at its first
+    /// frame. A number, or `auto`: enough frames for the start to fade under 0.05 voxel
+    /// (ln(40)·fps/α, 22 frames at α 4 and 24 fps).
+    #[arg(long)]
+    pub warmup: Option<String>,
+}
+
+/// What a start that is `d` voxels off the sequential skin fades to after the warm-up
+/// ([`PhysicsArgs::warmup_frames`] with `auto`): the attraction closes the gap as e^(−αt).
+pub const WARMUP_AUTO_FACTOR: f64 = 40.0;
+
+/// Frames for a start to fade to 1/[`WARMUP_AUTO_FACTOR`] of its offset at attraction
+/// rate `alpha` and `fps`: ln(40)·fps/α.
+pub fn auto_warmup(alpha: f64, fps: f64) -> i64 {
+    if alpha <= 0.0 {
+        return 0;
+    }
+    (WARMUP_AUTO_FACTOR.ln() * fps / alpha).ceil() as i64
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -44,6 +63,18 @@ pub enum PrecisionArg {
 }
 
 impl PhysicsArgs {
+    /// `--warmup` in frames: 0 when not given; `auto` from α and fps.
+    pub fn warmup_frames(&self) -> anyhow::Result<i64> {
+        match self.warmup.as_deref() {
+            None => Ok(0),
+            Some("auto") => Ok(auto_warmup(f64::from(self.alpha), self.fps)),
+            Some(n) => match n.parse::<i64>() {
+                Ok(n) if n >= 0 => Ok(n),
+                _ => usage!("--warmup must be a number of frames or `auto`, got '{n}'"),
+            },
+        }
+    }
+
     /// Checked parameters for a skin of voxel size `dx`.
     pub fn params(&self, default_dx: f32) -> anyhow::Result<SkinParams> {
         if !self.fps.is_finite() || self.fps <= 0.0 {

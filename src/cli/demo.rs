@@ -51,6 +51,7 @@ fn physics(alpha: f32, beta: f32) -> PhysicsArgs {
         area_gain: 0.0,
         voxel_size: None,
         precision: PrecisionArg::F32,
+        warmup: None,
     }
 }
 
@@ -100,7 +101,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     let skin = AnySkin::new(&Blobs::fig7_points(), fig7.params(dx)?);
     let spheres = Union::fig7_spheres();
     let out = outputs(&args.out, "fig7", args.quiet);
-    run_frames((1, 48), skin, fig7.fps, &out, |_| {
+    run_frames((1, 48), 1, skin, fig7.fps, &out, |_| {
         Ok(FrameInput::target(Box::new(&spheres)))
     })?;
 
@@ -108,7 +109,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     let moving = physics(4.0, 0.0005);
     let skin = AnySkin::new(&Orbiting { time: 0.0 }, moving.params(dx)?);
     let out = outputs(&args.out, "orbit", args.quiet);
-    run_frames((1, 48), skin, moving.fps, &out, |frame| {
+    run_frames((1, 48), 1, skin, moving.fps, &out, |frame| {
         let time = (frame - 1) as f32 / 24.0;
         Ok(FrameInput {
             target: Box::new(Orbiting { time }),
@@ -138,13 +139,20 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         particles::write_ply(&path, cloud)?;
     }
     let out = outputs(&args.out, "splash", args.quiet);
-    run_frames((1, clouds.len() as i64), skin, liquid.fps, &out, |frame| {
-        Ok(FrameInput {
-            target: Box::new(density(frame)),
-            flow: None,
-            seed: true,
-        })
-    })?;
+    run_frames(
+        (1, clouds.len() as i64),
+        1,
+        skin,
+        liquid.fps,
+        &out,
+        |frame| {
+            Ok(FrameInput {
+                target: Box::new(density(frame)),
+                flow: None,
+                seed: true,
+            })
+        },
+    )?;
 
     let shown = args.out.display();
     println!("wrote {shown}/fig7/fig7.####.{{vdb,obj,exr}}, {shown}/orbit/orbit.####.{{vdb,obj,exr}} and {shown}/splash/splash.####.{{vdb,obj,exr}} (its particles in splash/particles.####.ply), with stats.jsonl in each");

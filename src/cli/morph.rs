@@ -78,7 +78,12 @@ pub fn run(args: &MorphArgs) -> anyhow::Result<()> {
         .params(from_dx.or(to_dx).unwrap_or(1.0 / 32.0))?;
     let skin = AnySkin::new(&*from, params);
     let to = &to;
-    run_frames(range, skin, args.physics.fps, &args.outputs, |_| {
-        Ok(FrameInput::target(Box::new(to)))
-    })
+    run_frames(
+        range,
+        range.0,
+        skin,
+        args.physics.fps,
+        &args.outputs,
+        |_| Ok(FrameInput::target(Box::new(to))),
+    )
 }

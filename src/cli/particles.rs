@@ -10,8 +10,9 @@ use activeskin::target::{fluid_iso, DensityGrid, DEFAULT_SMOOTHING_LENGTH};
 use anyhow::Context;
 
 use super::args::{OutputArgs, PhysicsArgs};
+use super::farm::Shot;
 use super::pattern_arg;
-use super::skin::{input_frames, run_frames};
+use super::skin::{input_frames, run_frames, warm_up};
 
 #[derive(clap::Args)]
 pub struct ParticlesArgs {
@@ -54,6 +55,16 @@ pub struct ParticlesArgs {
     outputs: OutputArgs,
 }
 
+/// What `farm` needs to cut this run into chunks.
+pub fn shot(args: &ParticlesArgs) -> anyhow::Result<Shot<'_>> {
+    let input = input_frames("--particles", &args.particles, args.frames.as_deref())?;
+    Ok(Shot {
+        range: input.range,
+        physics: &args.physics,
+        fixed: Vec::new(),
+    })
+}
+
 pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     if !(args.radius.is_finite() && args.radius > 0.0) {
         usage!("--radius must be a positive number, got {}", args.radius);
@@ -66,7 +77,8 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     if !(iso.is_finite() && iso > 0.0) {
         usage!("--iso must be a positive number, got {iso}");
     }
-    let input = input_frames("--particles", &args.particles, args.frames.as_deref())?;
+    let mut input = input_frames("--particles", &args.particles, args.frames.as_deref())?;
+    let write_from = warm_up(&mut input, args.physics.warmup_frames()?);
     let params = args.physics.params(0.5 * args.radius)?;
     let density_out = match &args.density_out {
         Some(spec) => {
@@ -94,6 +106,10 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
             args.velocity_scale
         );
     }
+    let quiet_particles = ParticleInput {
+        density_out: None,
+        ..particles.clone()
+    };
     // Each frame is read once: its density is the skin's target and, with
     // --density-out, written as a fog volume on the way.
     let target_at = |frame: i64| -> Result<DensityGrid, FrameError> {
@@ -104,7 +120,11 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
                 path.display()
             )));
         }
-        particles.target(&path, frame)
+        // A warm-up frame writes nothing, its density neither.
+        match frame < write_from {
+            true => quiet_particles.target(&path, frame),
+            false => particles.target(&path, frame),
+        }
     };
     let range = input.range;
     // The skin starts on the first frame's density, one solid: the small voids of a
@@ -114,19 +134,26 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     let skin = AnySkin::new(&first, params);
     // The loop asks for the first frame once more, for its velocity.
     let mut first = Some(Arc::new(first));
-    run_frames(range, skin, args.physics.fps, &args.outputs, |frame| {
-        let density = match first.take() {
-            Some(grid) if frame == range.0 => grid,
-            _ => Arc::new(target_at(frame)?),
-        };
-        // Particles that carry velocities carry the skin (§7).
-        let flow = density
-            .has_velocities()
-            .then(|| Box::new(density.clone()) as Box<dyn Flow>);
-        Ok(FrameInput {
-            target: Box::new(density),
-            flow,
-            seed: true,
-        })
-    })
+    run_frames(
+        range,
+        write_from,
+        skin,
+        args.physics.fps,
+        &args.outputs,
+        |frame| {
+            let density = match first.take() {
+                Some(grid) if frame == range.0 => grid,
+                _ => Arc::new(target_at(frame)?),
+            };
+            // Particles that carry velocities carry the skin (§7).
+            let flow = density
+                .has_velocities()
+                .then(|| Box::new(density.clone()) as Box<dyn Flow>);
+            Ok(FrameInput {
+                target: Box::new(density),
+                flow,
+                seed: true,
+            })
+        },
+    )
 }

@@ -12,6 +12,7 @@ use activeskin::sequence::parse_range;
 use activeskin::skin::AnySkin;
 
 use super::args::{OutputArgs, PhysicsArgs};
+use super::farm::Shot;
 use super::{bad_usage, pattern_arg};
 
 #[derive(clap::Args)]
@@ -78,16 +79,36 @@ pub fn input_frames(flag: &str, spec: &str, frames: Option<&str>) -> anyhow::Res
     Ok(InputFrames::find(flag, spec, range)?)
 }
 
-/// Runs the library's frame loop with the command's outputs.
+/// Runs the library's frame loop with the command's outputs, writing from `write_from`.
 pub fn run_frames<'t>(
     range: (i64, i64),
+    write_from: i64,
     skin: AnySkin,
     fps: f64,
     outputs: &OutputArgs,
     input_at: impl FnMut(i64) -> Result<FrameInput<'t>, FrameError>,
 ) -> anyhow::Result<()> {
-    let mut outputs = Outputs::new(&outputs.spec()?, (range.1 - range.0 + 1) as u64)?;
-    Ok(frames::run(range, skin, fps, &mut outputs, input_at)?)
+    let mut outputs = Outputs::new(&outputs.spec()?, (range.1 - write_from + 1) as u64)?;
+    Ok(frames::run(
+        range,
+        write_from,
+        skin,
+        fps,
+        &mut outputs,
+        input_at,
+    )?)
+}
+
+/// Moves the start of `input`'s range `warmup` frames earlier, not before the sequence's
+/// first frame (a held single file has none); returns the first frame to write.
+pub fn warm_up(input: &mut InputFrames, warmup: i64) -> i64 {
+    let first = input.range.0;
+    let earliest = match input.existing.first() {
+        Some(&f) if !input.pattern.is_held() => f.min(first),
+        _ => i64::MIN,
+    };
+    input.range.0 = first.saturating_sub(warmup).max(earliest);
+    first
 }
 
 /// The velocity options of `skin`.
@@ -193,8 +214,29 @@ fn settle_scale(
     Ok(Some(estimate))
 }
 
-pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
+/// What `farm` needs to cut this run into chunks: the shot's frames, and the options that
+/// make every chunk read the shot alike (the velocity scale measured once, on the shot's
+/// first frames, not on each chunk's).
+pub fn shot(args: &SkinArgs) -> anyhow::Result<Shot<'_>> {
     let input = input_frames("--target", &args.target, args.frames.as_deref())?;
+    let (mut velocity, auto_scale) = args.velocity.input()?;
+    let mut fixed = Vec::new();
+    if auto_scale && settle_scale(&mut velocity, &input, args)?.is_some() {
+        fixed = match velocity.source {
+            VelocitySource::Off => vec!["--no-velocity".into()],
+            _ => vec!["--velocity-scale".into(), velocity.scale.to_string()],
+        };
+    }
+    Ok(Shot {
+        range: input.range,
+        physics: &args.physics,
+        fixed,
+    })
+}
+
+pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
+    let mut input = input_frames("--target", &args.target, args.frames.as_deref())?;
+    let write_from = warm_up(&mut input, args.physics.warmup_frames()?);
     let range = input.range;
     let (mut velocity, auto_scale) = args.velocity.input()?;
     let estimate = if auto_scale {
@@ -248,9 +290,10 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
         spec.stats_fields
             .insert("velocity_scale".into(), estimate.to_json());
     }
-    let mut outputs = Outputs::new(&spec, (range.1 - range.0 + 1) as u64)?;
+    let mut outputs = Outputs::new(&spec, (range.1 - write_from + 1) as u64)?;
     Ok(frames::run(
         range,
+        write_from,
         skin,
         args.physics.fps,
         &mut outputs,

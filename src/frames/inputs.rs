@@ -234,6 +234,7 @@ pub fn check_usable(path: &Path, data: &GridData) -> Result<(), FrameError> {
 /// How particle frames become targets (§6.1): the density of particles of `radius` (or
 /// their own radii) with supports of 2·`smoothing_length` radii, its surface at `iso`,
 /// rasterized on the skin's voxels; written as a fog volume when `density_out`.
+#[derive(Clone)]
 pub struct ParticleInput {
     pub radius: f32,
     pub ignore_radii: bool,

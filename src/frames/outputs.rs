@@ -115,6 +115,24 @@ impl Outputs {
         })
     }
 
+    /// Frames the renders' camera on `mesh`, the skin a run starts from (before a resume
+    /// or a warm-up): a resumed run renders its frames as the uninterrupted one did.
+    pub fn frame_camera(&mut self, mesh: &crate::mesh::Mesh) {
+        if let (Some((_, _, camera)), Some(first)) = (&mut self.render, mesh.positions.first()) {
+            let bounds = mesh.positions.iter().fold(
+                Aabb {
+                    min: *first,
+                    max: *first,
+                },
+                |b, &p| Aabb {
+                    min: b.min.min(p),
+                    max: b.max.max(p),
+                },
+            );
+            *camera = Some(framing(bounds));
+        }
+    }
+
     pub fn resume(&self) -> bool {
         self.resume
     }
@@ -143,9 +161,7 @@ impl Outputs {
             let dx = data.transform.voxel_size() as f32;
             let target = LevelSetTarget::new(data);
             let bounds = target.bounds();
-            let frame_box = *camera.get_or_insert_with(|| {
-                bounds.padded(0.25 * (bounds.max - bounds.min).max_element())
-            });
+            let frame_box = *camera.get_or_insert_with(|| framing(bounds));
             render::render(&target, frame_box, (View::Perspective, self.up), *size, dx)
                 .write(&pattern.path(frame))?;
         }
@@ -235,6 +251,11 @@ impl Outputs {
     pub fn finish(&self) {
         self.progress.finish_and_clear();
     }
+}
+
+/// The box a render's camera frames around a skin's `bounds`.
+fn framing(bounds: Aabb) -> Aabb {
+    bounds.padded(0.25 * (bounds.max - bounds.min).max_element())
 }
 
 /// Removes the temporary files a killed run left behind for this pattern's frames
