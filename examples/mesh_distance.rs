@@ -23,14 +23,17 @@ fn main() {
     let (mut previous_a, mut previous_b) = (read(&a, first), read(&b, first));
     for f in first..=last {
         let (ma, mb) = (read(&a, f), read(&b, f));
-        let e =
-            0.5 * (mean_distance(&ma, &mb, cell) + mean_distance(&mb, &ma, cell)) / f64::from(dx);
+        let (ab, ba) = (
+            mean_distance(&ma, &mb, cell) / f64::from(dx),
+            mean_distance(&mb, &ma, cell) / f64::from(dx),
+        );
+        let e = 0.5 * (ab + ba);
         error += e;
         if f > first {
             flicker_a += mean_distance(&ma, &previous_a, cell) / f64::from(dx);
             flicker_b += mean_distance(&mb, &previous_b, cell) / f64::from(dx);
         }
-        println!("frame {f}: {e:.3} voxel apart");
+        println!("frame {f}: {e:.3} voxel apart (A to B {ab:.3}, B to A {ba:.3})");
         (previous_a, previous_b) = (ma, mb);
     }
     let n = (last - first + 1) as f64;

@@ -330,7 +330,7 @@ fn cube_triangles(
 
 /// Meshes a grid copied from VDB, `value` mapping its values into [-1, 1] with the surface
 /// at 0 and negative inside; in index space, then carried by the grid's full transform.
-pub fn mesh_vdb(data: &GridData, value: impl Fn(f32) -> f32) -> Mesh {
+pub fn mesh_vdb(data: &GridData, value: impl Fn(f32) -> f32 + Sync) -> Mesh {
     let mut grid: SparseGrid<f32> = SparseGrid::from_vdb(data, value);
     // Not a skin's tube: the grid's values may jump from deep inside to its background
     // (liquid filling a dense grid to its walls, as Mantaflow's `phi`), so every node of

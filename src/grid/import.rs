@@ -3,7 +3,9 @@
 use glam::IVec3;
 use hashbrown::HashSet;
 
-use super::{Potential, SparseGrid, BLOCK_DIM};
+use rayon::prelude::*;
+
+use super::{Block, BlockId, Potential, SparseGrid, BLOCK_DIM};
 use crate::volume::GridData;
 
 impl<P: Potential> SparseGrid<P> {
@@ -11,7 +13,7 @@ impl<P: Potential> SparseGrid<P> {
     /// the same grid, block for block), with `f = clamp(value(φ) / scale)`. Inside tiles of
     /// one block are kept; larger inside tiles and a negative background are kept where
     /// they touch a leaf, which is all a polygonizer or the band upkeep reads.
-    pub fn from_vdb(data: &GridData, value: impl Fn(f32) -> f32) -> Self {
+    pub fn from_vdb(data: &GridData, value: impl Fn(f32) -> f32 + Sync) -> Self {
         let mut grid = SparseGrid::new();
         grid.import(data, value);
         grid
@@ -19,20 +21,25 @@ impl<P: Potential> SparseGrid<P> {
 
     /// [`SparseGrid::from_vdb`] into this grid, keeping its allocations (a skin restores
     /// its state every frame).
-    pub fn import(&mut self, data: &GridData, value: impl Fn(f32) -> f32) {
+    pub fn import(&mut self, data: &GridData, value: impl Fn(f32) -> f32 + Sync) {
         self.index.clear();
         self.blocks.clear();
         self.inside.clear();
         let grid = self;
         let mut order: Vec<usize> = (0..data.leaf_count()).collect();
         order.sort_unstable_by_key(|&i| data.leaf_origins[i]);
-        for &leaf in &order {
+        // Blocks filled in parallel, indexed after: a leaf is one block, each once.
+        let value = &value;
+        grid.blocks.par_extend(order.par_iter().map(|&leaf| {
             let coord = IVec3::from_array(data.leaf_origins[leaf]) >> IVec3::splat(3);
-            let id = grid.touch(coord);
-            let block = &mut grid.blocks[id.0 as usize];
+            let mut block = Block::filled(coord, P::OUTSIDE);
             for (out, &v) in block.values.iter_mut().zip(data.leaf_values(leaf)) {
                 *out = P::from_f32(value(v).clamp(-1.0, 1.0));
             }
+            block
+        }));
+        for (id, block) in grid.blocks.iter().enumerate() {
+            grid.index.insert(block.coord, BlockId(id as u32));
         }
         let leaves: HashSet<IVec3> = grid.index.keys().copied().collect();
         for tile in &data.tiles {
