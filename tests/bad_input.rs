@@ -139,7 +139,34 @@ fn bad_usage_exits_2() {
     let out = dir.path().join("o.####.vdb");
     let out = out.to_str().unwrap();
     let nothing = dir.path().join("none.####.vdb");
-    let cases: [(&str, Vec<&str>, &str); 7] = [
+    let cases: [(&str, Vec<&str>, &str); 10] = [
+        (
+            "a warm-up that is not a number",
+            vec!["skin", "--target", target, "--warmup", "soon", "--out", out],
+            "--warmup",
+        ),
+        (
+            "a negative warm-up",
+            vec!["skin", "--target", target, "--warmup=-3", "--out", out],
+            "--warmup",
+        ),
+        (
+            "a morph's warm-up",
+            vec![
+                "morph",
+                "--from",
+                "sphere:r=0.5",
+                "--to",
+                "sphere:r=0.4",
+                "--frames",
+                "1-3",
+                "--warmup",
+                "2",
+                "--out",
+                out,
+            ],
+            "--warmup",
+        ),
         (
             "negative α",
             vec!["skin", "--target", target, "--alpha=-2", "--out", out],

@@ -70,6 +70,9 @@ fn shape(spec: &str) -> anyhow::Result<(Box<dyn Target>, Option<f32>)> {
 }
 
 pub fn run(args: &MorphArgs) -> anyhow::Result<()> {
+    if args.physics.warmup.is_some() {
+        usage!("--warmup is for skin and particles: a morph starts on its --from shape");
+    }
     let range = parse_frames(&args.frames)?;
     let (from, from_dx) = shape(&args.from)?;
     let (to, to_dx) = shape(&args.to)?;
