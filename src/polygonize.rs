@@ -96,18 +96,6 @@ impl Polygonizer {
                 let base = block.coord * BLOCK_DIM;
                 *sides = InsideRows::of(halo);
                 let rows = &*sides;
-                let count: u32 = active_rows(block)
-                    .map(|(x, y, active)| {
-                        let r = rows.at(x, y);
-                        [rows.at(x + 1, y), rows.at(x, y + 1), r >> 1]
-                            .map(|n| (active & (r ^ n) >> 1).count_ones())
-                            .iter()
-                            .sum::<u32>()
-                    })
-                    .sum();
-                work.points.reserve(count as usize);
-                work.positions.reserve(count as usize);
-                work.normals.reserve(count as usize);
                 for (x, y, active) in active_rows(block) {
                     let r = rows.at(x, y);
                     // Bit z: the edge from node z along x, y, z changes side.
