@@ -2,6 +2,8 @@
 #include "activeskin/cpp/vdb_impl.h"
 
 #include <openvdb/io/File.h>
+#include <openvdb/tree/LeafManager.h>
+#include <tbb/parallel_for.h>
 #include <openvdb/tools/LevelSetSphere.h>
 #include <openvdb/tools/Prune.h>
 
@@ -148,8 +150,15 @@ rust::Vec<GridSummary> list_grids(rust::Str path) {
   return out;
 }
 
+// Reads one float grid with its leaves decompressed on all threads: the file is mapped
+// (delayed loading, no private copy), every leaf buffer is loaded in parallel, then the
+// file is closed. Once loaded, no leaf refers to the mapping any more, so, as with
+// open_file, nothing stays mapped and the file can be overwritten.
 std::unique_ptr<FloatGrid> read_float_grid(rust::Str path, rust::Str name) {
-  auto file = open_file(path);
+  ensure_initialized();
+  auto file = std::make_unique<openvdb::io::File>(std::string(path));
+  file->setCopyMaxBytes(0);
+  file->open(/*delayLoad=*/true);
   std::string wanted(name);
   std::string found_types;
   openvdb::GridPtrVecPtr metas = file->readAllGridMetadata();
@@ -164,9 +173,14 @@ std::unique_ptr<FloatGrid> read_float_grid(rust::Str path, rust::Str name) {
       continue;
     }
     openvdb::GridBase::Ptr base = file->readGrid(meta->getName());
-    file->close();
     auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
     if (!grid) throw openvdb::TypeError("grid '" + meta->getName() + "' is not a float grid");
+    openvdb::tree::LeafManager<const FloatTree> leaves(grid->tree());
+    tbb::parallel_for(leaves.leafRange(), [](const auto &range) {
+      // Reading a voxel loads the leaf's buffer.
+      for (auto leaf = range.begin(); leaf; ++leaf) leaf->getValue(openvdb::Index(0));
+    });
+    file->close();
     return wrap(grid);
   }
   std::string listing;

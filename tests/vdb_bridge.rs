@@ -291,3 +291,28 @@ fn grid_lookup_errors_name_the_grids() {
         .to_string();
     assert!(err.contains("no grid named 'density'"), "{err}");
 }
+
+/// A grid read from a file holds every voxel in memory (its leaves are loaded on all
+/// threads, then the file is closed): nothing stays mapped, so the file can be
+/// overwritten, even truncated, while the grid lives, as a frame loop does to its outputs.
+#[test]
+fn a_read_grid_keeps_nothing_mapped_and_survives_its_file_being_overwritten() {
+    let dir = common::scratch();
+    let path = dir.path().join("sphere.vdb");
+    let original = sphere_with_interior_tiles();
+    vdb::write_grids(&path, &[(&original, WriteOptions::default())], &metadata()).unwrap();
+    let expected = original.to_data().unwrap();
+
+    let read = Grid::read(&path, None).unwrap();
+    let maps = std::fs::read_to_string("/proc/self/maps").unwrap();
+    let name = path.to_string_lossy();
+    assert!(
+        !maps.lines().any(|l| l.ends_with(&*name)),
+        "{name} is still mapped"
+    );
+    // Overwrite the file with a much smaller one, then read the grid's voxels.
+    std::fs::write(&path, b"not a VDB any more").unwrap();
+    let mut got = read.to_data().unwrap();
+    got.name = expected.name.clone();
+    assert_bit_identical(&expected, &got);
+}
