@@ -337,12 +337,12 @@ pub fn mesh_vdb(data: &GridData, value: impl Fn(f32) -> f32 + Sync) -> Mesh {
     let to_world =
         |p: Vec3| Vec3::from(xf.index_to_world(p.as_dvec3().to_array()).map(|c| c as f32));
     let origin = to_world(Vec3::ZERO);
-    for p in &mut mesh.positions {
-        *p = to_world(*p);
-    }
-    for n in &mut mesh.normals {
-        *n = (to_world(*n) - origin).normalize_or_zero();
-    }
+    mesh.positions
+        .par_iter_mut()
+        .for_each(|p| *p = to_world(*p));
+    mesh.normals
+        .par_iter_mut()
+        .for_each(|n| *n = (to_world(*n) - origin).normalize_or_zero());
     let axes = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| to_world(a) - origin);
     if axes[0].cross(axes[1]).dot(axes[2]) < 0.0 {
         // A mirroring transform turns the winding inside out.

@@ -3,6 +3,8 @@
 
 use std::path::PathBuf;
 
+use rayon::prelude::*;
+
 use activeskin::polygonize::mesh_vdb;
 use activeskin::vdb::Grid;
 use activeskin::volume::GridClass;
@@ -48,12 +50,14 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
             data.name
         ),
     };
+    let farthest = |m: f32, &v: &f32| m.max((v - iso).abs());
     let range = data
         .leaf_values
-        .iter()
-        .chain(data.tiles.iter().map(|t| &t.value))
-        .chain([&data.background])
-        .fold(0.0f32, |m, &v| m.max((v - iso).abs()))
+        .par_iter()
+        .fold(|| 0.0f32, farthest)
+        .reduce(|| 0.0, f32::max)
+        .max(data.tiles.iter().map(|t| &t.value).fold(0.0, farthest))
+        .max(farthest(0.0, &data.background))
         .max(f32::MIN_POSITIVE);
     let mesh = mesh_vdb(&data, |v| sign * (v - iso) / range);
     mesh.write(&args.output)?;
