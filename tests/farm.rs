@@ -17,15 +17,9 @@ const DX: f32 = 0.02;
 
 /// The particles command on the drop-and-splash sample as the demo dresses it (α = 48,
 /// so `--warmup auto` is ln(40)·24/48 → 2 frames).
-fn chunk(dir: &Path, frames: &str, extra: &[&str]) {
+fn splash() -> Vec<String> {
     let particles = format!("{DATA}/data/splash/drop.####.ply");
-    let file = |name: &str| dir.join(name).to_string_lossy().into_owned();
-    let (mesh, out, stats) = (
-        file("skin.####.obj"),
-        file("skin.####.vdb"),
-        file("stats.jsonl"),
-    );
-    let mut args = vec![
+    [
         "particles",
         "--particles",
         &particles,
@@ -33,17 +27,24 @@ fn chunk(dir: &Path, frames: &str, extra: &[&str]) {
         "0.04",
         "--alpha",
         "48",
-        "--frames",
-        frames,
-        "--mesh",
-        &mesh,
-        "--out",
-        &out,
-        "--stats",
-        &stats,
-        "-q",
-    ];
-    args.extend_from_slice(extra);
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
+/// The splash over `frames` into `dir`: meshes, VDBs and stats, plus `extra`.
+fn chunk(dir: &Path, frames: &str, extra: &[&str]) {
+    let file = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    let mut args = splash();
+    args.extend(["--frames", frames, "--mesh"].map(String::from));
+    args.push(file("skin.####.obj"));
+    args.push("--out".into());
+    args.push(file("skin.####.vdb"));
+    args.push("--stats".into());
+    args.push(file("stats.jsonl"));
+    args.push("-q".into());
+    args.extend(extra.iter().map(|s| s.to_string()));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
     assert_ok(&activeskin(&args));
 }
 
@@ -111,24 +112,19 @@ fn a_chunk_resumes_from_its_own_frames_only() {
 
 /// The shot both farm tests cut: the splash's first 14 frames, meshes and VDBs in `out/`.
 fn shot_words() -> Vec<String> {
-    let particles = format!("{DATA}/data/splash/drop.####.ply");
-    [
-        "particles",
-        "--particles",
-        &particles,
-        "--radius",
-        "0.04",
-        "--alpha",
-        "48",
-        "--frames",
-        "1-14",
-        "--mesh",
-        "out/skin.####.obj",
-        "--out",
-        "out/skin.####.vdb",
-    ]
-    .map(String::from)
-    .to_vec()
+    let mut words = splash();
+    words.extend(
+        [
+            "--frames",
+            "1-14",
+            "--mesh",
+            "out/skin.####.obj",
+            "--out",
+            "out/skin.####.vdb",
+        ]
+        .map(String::from),
+    );
+    words
 }
 
 /// `activeskin` run in `dir`, with `env` set.

@@ -49,7 +49,7 @@ pub const WARMUP_AUTO_FACTOR: f64 = 40.0;
 
 /// Frames for a start to fade to 1/[`WARMUP_AUTO_FACTOR`] of its offset at attraction
 /// rate `alpha` and `fps`: ln(40)·fps/α.
-pub fn auto_warmup(alpha: f64, fps: f64) -> i64 {
+fn auto_warmup(alpha: f64, fps: f64) -> i64 {
     if alpha <= 0.0 {
         return 0;
     }
@@ -65,7 +65,12 @@ pub enum PrecisionArg {
 impl PhysicsArgs {
     /// `--warmup` in frames: 0 when not given; `auto` from α and fps.
     pub fn warmup_frames(&self) -> anyhow::Result<i64> {
-        match self.warmup.as_deref() {
+        self.warmup_of(self.warmup.as_deref())
+    }
+
+    /// A warm-up given as `spec` (a number of frames or `auto`) at this α and fps.
+    pub fn warmup_of(&self, spec: Option<&str>) -> anyhow::Result<i64> {
+        match spec {
             None => Ok(0),
             Some("auto") => Ok(auto_warmup(f64::from(self.alpha), self.fps)),
             Some(n) => match n.parse::<i64>() {

@@ -10,7 +10,7 @@ use std::process::Command as Process;
 use anyhow::Context;
 use clap::FromArgMatches;
 
-use super::args::{auto_warmup, PhysicsArgs};
+use super::args::PhysicsArgs;
 use super::{particles, skin, Cli, Command};
 
 #[derive(clap::Args)]
@@ -66,13 +66,7 @@ pub fn run(args: &FarmArgs) -> anyhow::Result<()> {
     if shot.physics.warmup.is_some() {
         usage!("give --warmup to farm, not to the command it runs");
     }
-    let warmup = match args.warmup.as_str() {
-        "auto" => auto_warmup(f64::from(shot.physics.alpha), shot.physics.fps),
-        n => match n.parse::<i64>() {
-            Ok(n) if n >= 0 => n,
-            _ => usage!("--warmup must be a number of frames or `auto`, got '{n}'"),
-        },
-    };
+    let warmup = shot.physics.warmup_of(Some(&args.warmup))?;
     let (first, last) = shot.range;
     let frames = last - first + 1;
     if !(1..=frames).contains(&args.chunks) {
