@@ -33,6 +33,18 @@ pub(crate) fn offset_coords(offset: usize) -> IVec3 {
     IVec3::new(o >> 6, (o >> 3) & 7, o & 7)
 }
 
+/// The 27 steps of a 3³ neighbourhood, (0, 0, 0) included; step n is
+/// (n / 9 − 1, n / 3 mod 3 − 1, n mod 3 − 1), the order of [`SparseGrid::neighbourhood`].
+pub(crate) const AROUND: [IVec3; 27] = {
+    let mut steps = [IVec3::ZERO; 27];
+    let mut n = 0;
+    while n < 27 {
+        steps[n] = IVec3::new(n as i32 / 9 - 1, (n as i32 / 3) % 3 - 1, n as i32 % 3 - 1);
+        n += 1;
+    }
+    steps
+};
+
 /// The block holding global node `ijk`.
 #[inline]
 pub(crate) fn block_of(ijk: IVec3) -> IVec3 {
@@ -290,8 +302,7 @@ impl<P: Potential> SparseGrid<P> {
 
     /// The 27 blocks around `coord` (itself at index 13), for halo gathering.
     pub(crate) fn neighbourhood(&self, coord: IVec3) -> [Result<BlockId, P>; 27] {
-        std::array::from_fn(|n| {
-            let d = IVec3::new(n as i32 / 9 - 1, (n as i32 / 3) % 3 - 1, n as i32 % 3 - 1);
+        AROUND.map(|d| {
             let c = coord + d;
             self.find(c).ok_or_else(|| self.tile_value(c))
         })

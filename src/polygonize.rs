@@ -12,7 +12,8 @@ use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::grid::{
-    node_offset, offset_coords, Block, BlockId, Halo, Potential, SparseGrid, BLOCK_DIM, HALO_DIM,
+    node_offset, offset_coords, Block, BlockId, Halo, Potential, SparseGrid, AROUND, BLOCK_DIM,
+    HALO_DIM,
 };
 use crate::mesh::Mesh;
 use crate::volume::GridData;
@@ -375,8 +376,8 @@ fn store_blocks_across_crossings(grid: &mut SparseGrid<f32>) {
         .flat_map_iter(|block| {
             let faces = faces(block);
             let coord = block.coord;
-            (0..27)
-                .map(|n| IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1))
+            AROUND
+                .into_iter()
                 .filter(|d| *d != IVec3::ZERO)
                 .filter_map(move |d| {
                     let c = coord + d;

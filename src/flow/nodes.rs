@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use super::Flow;
 use crate::grid::BLOCK_NODES;
-use crate::grid::{block_of, node_offset, offset_coords, Potential, SparseGrid, BLOCK_DIM};
+use crate::grid::{block_of, node_offset, offset_coords, Potential, SparseGrid, AROUND, BLOCK_DIM};
 use crate::polygonize::IndexToWorld;
 
 /// `flow` at the nodes of the lattice `xf`, in blocks of 8³ around a skin's band.
@@ -49,8 +49,8 @@ impl<'a> OnNodes<'a> {
                         near[axis][1] |= l[axis] >= BLOCK_DIM - 2;
                     }
                 }
-                (0..27)
-                    .map(|n| IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1))
+                AROUND
+                    .into_iter()
                     .filter(move |d| (0..3).all(|a| d[a] == 0 || near[a][usize::from(d[a] > 0)]))
                     .map(move |d| b.coord + d)
             })

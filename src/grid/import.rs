@@ -5,7 +5,7 @@ use hashbrown::HashSet;
 
 use rayon::prelude::*;
 
-use super::{Block, BlockId, Potential, SparseGrid, BLOCK_DIM};
+use super::{Block, BlockId, Potential, SparseGrid, AROUND, BLOCK_DIM};
 use crate::volume::GridData;
 
 impl<P: Potential> SparseGrid<P> {
@@ -82,7 +82,5 @@ impl<P: Potential> SparseGrid<P> {
 }
 
 fn neighbour_steps() -> impl Iterator<Item = IVec3> {
-    (0..27)
-        .map(|n| IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1))
-        .filter(|d| *d != IVec3::ZERO)
+    AROUND.into_iter().filter(|d| *d != IVec3::ZERO)
 }

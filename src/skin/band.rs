@@ -6,7 +6,7 @@ use glam::IVec3;
 use rayon::prelude::*;
 
 use crate::grid::{
-    node_offset, offset_coords, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES,
+    node_offset, offset_coords, Halo, Potential, SparseGrid, AROUND, BLOCK_DIM, BLOCK_NODES,
 };
 
 // Node offsets and axes are coordinates here, not just indices.
@@ -145,8 +145,7 @@ fn godunov(mut a: [f32; 3], h: f32) -> f32 {
 pub(crate) fn start_consistently<P: Potential>(grid: &mut SparseGrid<P>) {
     let mut borders = Vec::new();
     for &c in grid.inside_tiles() {
-        for n in 0..27 {
-            let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
+        for d in AROUND {
             let next = c + d;
             if !grid.inside_tiles().contains(&next) && grid.find(next).is_none() {
                 borders.push(c);
@@ -179,8 +178,7 @@ pub(crate) fn clamp_at_crossings<P: Potential>(
             }
         }
         // Any node within one node (26 neighbours) of the other sign shares a cell with it.
-        let corner = (0..27).any(|n| {
-            let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
+        let corner = AROUND.iter().any(|&d| {
             let m = l + d;
             (halo.at(m.x, m.y, m.z) < 0.0) != (f < 0.0)
         });

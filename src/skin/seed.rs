@@ -8,7 +8,7 @@ use hashbrown::HashSet;
 use rayon::prelude::*;
 
 use super::Skin;
-use crate::grid::{offset_coords, Potential, BLOCK_DIM, BLOCK_NODES};
+use crate::grid::{offset_coords, Potential, AROUND, BLOCK_DIM, BLOCK_NODES};
 use crate::polygonize::IndexToWorld;
 use crate::target::Target;
 
@@ -69,12 +69,7 @@ impl<P: Potential> Skin<P> {
             .into_iter()
             .chain(self.grid.inside_tiles().iter().copied())
             .collect();
-        let near_skin = |c: IVec3| {
-            (0..27).any(|n| {
-                let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
-                occupied.contains(&(c + d))
-            })
-        };
+        let near_skin = |c: IVec3| AROUND.iter().any(|&d| occupied.contains(&(c + d)));
         let xf = self.xf;
         let wanted: Vec<(IVec3, Box<[f32; BLOCK_NODES]>)> = classify_blocks(target, xf, w)
             .into_par_iter()

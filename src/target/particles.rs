@@ -7,7 +7,7 @@ use glam::{IVec3, Vec3};
 use hashbrown::{HashMap, HashSet};
 use rayon::prelude::*;
 
-use crate::grid::offset_coords;
+use crate::grid::{offset_coords, AROUND};
 use crate::volume::{GridClass, GridData, Transform, LEAF_VOXELS, MASK_WORDS};
 
 use super::{Aabb, Target};
@@ -192,8 +192,7 @@ impl Density {
     pub fn density_and_gradient(&self, p: Vec3) -> (f32, Vec3) {
         let cell = (p / self.h).floor().as_ivec3();
         let (mut g, mut grad) = (0.0, Vec3::ZERO);
-        for n in 0..27 {
-            let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
+        for d in AROUND {
             if let Some(&(start, end)) = self.cells.get(&(cell + d)) {
                 let run = start as usize..end as usize;
                 for (&(q, inv_h2), &v) in self.particles[run.clone()].iter().zip(&self.volumes[run])
@@ -222,9 +221,9 @@ impl Density {
         let own: Vec<(u32, Vec<f32>)> = cells
             .par_iter()
             .map(|&(cell, start, end)| {
-                let runs: Vec<&[(Vec3, f32)]> = (0..27)
-                    .filter_map(|n| {
-                        let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
+                let runs: Vec<&[(Vec3, f32)]> = AROUND
+                    .iter()
+                    .filter_map(|&d| {
                         let &(a, b) = self.cells.get(&(cell + d))?;
                         Some(&self.particles[a as usize..b as usize])
                     })
@@ -313,8 +312,7 @@ impl Flow for Density {
         }
         let cell = (p / self.h).floor().as_ivec3();
         let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
-        for n in 0..27 {
-            let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
+        for d in AROUND {
             if let Some(&(start, end)) = self.cells.get(&(cell + d)) {
                 let run = start as usize..end as usize;
                 for ((&(q, inv_h2), &v), &volume) in self.particles[run.clone()]

@@ -11,6 +11,7 @@ use rayon::prelude::*;
 
 use super::Density;
 use crate::flow::Flow;
+use crate::grid::AROUND;
 use crate::target::{Aabb, Target};
 use crate::volume::{GridClass, GridData, Transform, MASK_WORDS};
 
@@ -266,8 +267,7 @@ impl DensityGrid {
             .blocks
             .par_iter()
             .map(|b| {
-                (0..27).all(|n| {
-                    let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
+                AROUND.iter().all(|&d| {
                     self.slots
                         .get(&(b.coord + d))
                         .is_some_and(|&s| full[s as usize])
@@ -452,11 +452,7 @@ impl Target for DensityGrid {
         let c = u.floor().as_ivec3() >> 3;
         match self.block(c) {
             Some(block) if block.deep => return -depth_in_neighbourhood(c, u) * self.dx,
-            None if (0..27).all(|n| {
-                let d = IVec3::new(n / 9 - 1, (n / 3) % 3 - 1, n % 3 - 1);
-                self.block(c + d).is_none()
-            }) =>
-            {
+            None if AROUND.iter().all(|&d| self.block(c + d).is_none()) => {
                 return depth_in_neighbourhood(c, u) * self.dx
             }
             _ => {}
