@@ -90,6 +90,21 @@ fn a_warmed_up_chunk_meets_the_sequential_run_and_writes_only_its_frames() {
 }
 
 #[test]
+fn a_chunk_leaves_other_chunks_temporary_files_alone() {
+    // Chunks run at once into the same folders: a starting chunk removes what a killed run
+    // left for its own frames, never another chunk's frame being written.
+    let dir = scratch();
+    std::fs::create_dir_all(dir.path()).unwrap();
+    let other = dir.path().join(".skin.0003.obj.4242.tmp");
+    let stale = dir.path().join(".skin.0010.obj.4242.tmp");
+    std::fs::write(&other, b"frame 3, being written by another chunk").unwrap();
+    std::fs::write(&stale, b"frame 10, left by a killed run of this chunk").unwrap();
+    chunk(dir.path(), "9-14", &["--warmup", "2"]);
+    assert!(other.exists(), "another chunk's frame was removed");
+    assert!(!stale.exists(), "this chunk's stale frame was kept");
+}
+
+#[test]
 fn a_chunk_resumes_from_its_own_frames_only() {
     let whole = scratch();
     chunk(whole.path(), "9-14", &["--warmup", "2"]);
@@ -209,15 +224,15 @@ fn farm_refuses_what_it_cannot_cut() {
     for (args, what) in [
         ("farm --chunks 4 -- info x.vdb", "skin` or `particles"),
         (
-            "farm --chunks 0 -- particles --particles P --radius 0.04",
+            "farm --chunks 0 -- particles --particles P --radius 0.04 --out o.####.vdb",
             "--chunks",
         ),
         (
-            "farm --chunks 2 --warmup soon -- particles --particles P --radius 0.04",
+            "farm --chunks 2 --warmup soon -- particles --particles P --radius 0.04 --out o.####.vdb",
             "--warmup",
         ),
         (
-            "farm --chunks 2 -- particles --particles P --radius 0.04 --warmup 3",
+            "farm --chunks 2 -- particles --particles P --radius 0.04 --warmup 3 --out o.####.vdb",
             "--warmup",
         ),
         (
@@ -225,8 +240,12 @@ fn farm_refuses_what_it_cannot_cut() {
             "--bogus",
         ),
         (
-            "farm --chunks 2 -- particles --particles P --radius 0.04 --render r.####.png",
+            "farm --chunks 2 -- particles --particles P --radius 0.04 --render r.####.png --out o.####.vdb",
             "--render",
+        ),
+        (
+            "farm --chunks 2 -- particles --particles P --radius 0.04 --mesh m.####.obj",
+            "--out",
         ),
     ] {
         let particles = format!("{DATA}/data/splash/drop.####.ply");
@@ -261,14 +280,20 @@ fn a_slurm_job_array_meets_the_sequential_run() {
         .unwrap()
         .trim()
         .to_string();
-    let stop = || Command::new(&script).arg("stop").arg(&cluster).status();
+    // Stopped however the test ends, a failed assertion included.
+    struct Cluster<'a>(&'a str, &'a Path);
+    impl Drop for Cluster<'_> {
+        fn drop(&mut self) {
+            let _ = Command::new(self.0).arg("stop").arg(self.1).status();
+        }
+    }
+    let _running = Cluster(&script, &cluster);
     let env = [("SLURM_CONF", conf.as_str())];
 
     let begun = Instant::now();
     let submitted = farm(dir.path(), &[], &env);
     let said = String::from_utf8_lossy(&submitted.stdout).into_owned();
     if !submitted.status.success() {
-        let _ = stop();
         panic!("{said}{}", common::stderr(&submitted));
     }
     println!("{said}");
@@ -297,7 +322,6 @@ fn a_slurm_job_array_meets_the_sequential_run() {
                 return now;
             }
             if begun.elapsed() > Duration::from_secs(180) {
-                let _ = stop();
                 panic!("job {id} did not finish in 3 minutes: {now:?}");
             }
             std::thread::sleep(Duration::from_millis(500));
@@ -329,7 +353,6 @@ fn a_slurm_job_array_meets_the_sequential_run() {
         .and_then(|w| w.parse().ok())
         .unwrap_or_else(|| panic!("sbatch: {}", common::stderr(&again)));
     let resubmitted = wait(again_id, 1);
-    let _ = stop();
     assert_eq!(resubmitted, ["COMPLETED"]);
     assert!(
         std::fs::read(&last).unwrap() == before,

@@ -10,7 +10,7 @@ use std::process::Command as Process;
 use anyhow::Context;
 use clap::FromArgMatches;
 
-use super::args::PhysicsArgs;
+use super::args::{OutputArgs, PhysicsArgs};
 use super::{particles, skin, Cli, Command};
 
 #[derive(clap::Args)]
@@ -47,6 +47,7 @@ pub struct Shot<'a> {
     /// Every frame of the shot.
     pub range: (i64, i64),
     pub physics: &'a PhysicsArgs,
+    pub outputs: &'a OutputArgs,
     /// Options every chunk adds, so that all read the shot alike.
     pub fixed: Vec<String>,
 }
@@ -65,6 +66,9 @@ pub fn run(args: &FarmArgs) -> anyhow::Result<()> {
     };
     if shot.physics.warmup.is_some() {
         usage!("give --warmup to farm, not to the command it runs");
+    }
+    if shot.outputs.out.is_none() {
+        usage!("farm needs --out: a chunk resubmitted after a failure resumes from its skin VDBs");
     }
     let warmup = shot.physics.warmup_of(Some(&args.warmup))?;
     let (first, last) = shot.range;

@@ -61,6 +61,7 @@ pub fn shot(args: &ParticlesArgs) -> anyhow::Result<Shot<'_>> {
     Ok(Shot {
         range: input.range,
         physics: &args.physics,
+        outputs: &args.outputs,
         fixed: Vec::new(),
     })
 }

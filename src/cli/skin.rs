@@ -88,7 +88,7 @@ pub fn run_frames<'t>(
     outputs: &OutputArgs,
     input_at: impl FnMut(i64) -> Result<FrameInput<'t>, FrameError>,
 ) -> anyhow::Result<()> {
-    let mut outputs = Outputs::new(&outputs.spec()?, (range.1 - write_from + 1) as u64)?;
+    let mut outputs = Outputs::new(&outputs.spec()?, (write_from, range.1))?;
     Ok(frames::run(
         range,
         write_from,
@@ -230,6 +230,7 @@ pub fn shot(args: &SkinArgs) -> anyhow::Result<Shot<'_>> {
     Ok(Shot {
         range: input.range,
         physics: &args.physics,
+        outputs: &args.outputs,
         fixed,
     })
 }
@@ -290,7 +291,7 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
         spec.stats_fields
             .insert("velocity_scale".into(), estimate.to_json());
     }
-    let mut outputs = Outputs::new(&spec, (range.1 - write_from + 1) as u64)?;
+    let mut outputs = Outputs::new(&spec, (write_from, range.1))?;
     Ok(frames::run(
         range,
         write_from,

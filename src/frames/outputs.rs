@@ -58,9 +58,10 @@ pub struct Outputs {
 }
 
 impl Outputs {
-    /// Checks the request, creates the output folders and removes the temporary files a
-    /// killed run left there.
-    pub fn new(spec: &OutputSpec, frames: u64) -> Result<Self, FrameError> {
+    /// Checks the request for frames `first..=last`, creates the output folders and removes
+    /// the temporary files a killed run left there for those frames (only those: farm
+    /// chunks writing other frames into the same folders may be running).
+    pub fn new(spec: &OutputSpec, (first, last): (i64, i64)) -> Result<Self, FrameError> {
         let usage = |m: String| Err(FrameError::Usage(m));
         if let Some(mesh) = &spec.mesh {
             require_extension("--mesh", mesh, "meshes", &["obj", "ply"])?;
@@ -86,14 +87,14 @@ impl Outputs {
                     folder.display()
                 ))
             })?;
-            remove_stale_temporaries(pattern);
+            remove_stale_temporaries(pattern, first..=last);
         }
         let terminal = std::io::stderr().is_terminal();
         let quiet = spec.progress == Progress::Quiet;
         let progress = if quiet || !terminal {
             ProgressBar::hidden()
         } else {
-            let bar = ProgressBar::new(frames);
+            let bar = ProgressBar::new((last - first + 1).max(0) as u64);
             bar.set_style(
                 ProgressStyle::with_template(
                     "{bar:40} {pos}/{len} frames, {elapsed} ({eta} left) {msg}",
@@ -258,9 +259,9 @@ fn framing(bounds: Aabb) -> Aabb {
     bounds.padded(0.25 * (bounds.max - bounds.min).max_element())
 }
 
-/// Removes the temporary files a killed run left behind for this pattern's frames
+/// Removes the temporary files a killed run left behind for this pattern's `frames`
 /// (`.NAME.PID.tmp`, see [`crate::io::temporary_path`]).
-fn remove_stale_temporaries(pattern: &FramePattern) {
+fn remove_stale_temporaries(pattern: &FramePattern, frames: std::ops::RangeInclusive<i64>) {
     let folder = pattern.folder();
     let Ok(entries) = std::fs::read_dir(&folder) else {
         return;
@@ -278,7 +279,7 @@ fn remove_stale_temporaries(pattern: &FramePattern) {
             && frame_path
                 .to_str()
                 .and_then(|p| pattern.frame_of(p))
-                .is_some();
+                .is_some_and(|f| frames.contains(&f));
         if ours {
             let _ = std::fs::remove_file(entry.path());
         }

@@ -9,15 +9,16 @@
 set -euo pipefail
 command=${1:?start or stop}
 dir=$(realpath -m "${2:?a folder for the cluster\'s state}")
-conf=$dir/slurm.conf
+# A name of our own: `stop` (and a new `start`) also end daemons a crashed test left
+# running on our ports, and only ours.
+conf=$dir/activeskin-test-slurm.conf
 
 stop() {
-    for daemon in slurmd slurmctld; do
-        if [ -s "$dir/$daemon.pid" ]; then
-            kill "$(cat "$dir/$daemon.pid")" 2>/dev/null || true
-        fi
+    pkill -f -- "-f .*/activeskin-test-slurm.conf" 2>/dev/null || true
+    for _ in $(seq 20); do
+        pgrep -f -- "-f .*/activeskin-test-slurm.conf" >/dev/null || return 0
+        sleep 0.25
     done
-    sleep 1
 }
 
 case $command in
