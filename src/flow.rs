@@ -76,6 +76,41 @@ impl Target for Backtracked<'_> {
     }
 }
 
+/// Which of a cache's per-frame velocities carry the liquid from one frame to the next.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Timing {
+    /// The earlier frame's: solvers that advect with the velocity they saved, then update
+    /// it, a sub-step or two per frame (grid and FLIP solvers: Houdini, Mantaflow).
+    #[default]
+    Start,
+    /// The mean of both frames': many sub-steps per frame (SPH solvers).
+    Mid,
+}
+
+impl Timing {
+    /// The flow over an interval whose frames have the flows `start` and `end`; `mean` is
+    /// where [`Timing::Mid`] puts their mean. A missing end takes the other's.
+    pub fn interval<'a>(
+        self,
+        start: Option<&'a dyn Flow>,
+        end: Option<&'a dyn Flow>,
+        mean: &'a mut Option<Mean<'a>>,
+    ) -> Option<&'a dyn Flow> {
+        match (self, start, end) {
+            (Timing::Mid, Some(a), Some(b)) => Some(mean.insert(Mean(a, b))),
+            (_, Some(a), _) => Some(a),
+            (_, None, b) => b,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Timing::Start => "start",
+            Timing::Mid => "mid",
+        }
+    }
+}
+
 /// The mean of two flows: the velocity over a frame interval from the velocities of the
 /// frames at both ends.
 pub struct Mean<'a>(pub &'a dyn Flow, pub &'a dyn Flow);

@@ -19,7 +19,7 @@ pub use inputs::{
 };
 pub use outputs::{OutputSpec, Outputs, Progress};
 
-use crate::flow::{Flow, Mean};
+use crate::flow::{Flow, Timing};
 use crate::mesh::MeshError;
 use crate::particles::ParticleError;
 use crate::render::RenderError;
@@ -72,8 +72,8 @@ impl<'t> FrameInput<'t> {
 }
 
 /// Runs frames `first..=last`: frame `first` is the starting skin, each later frame
-/// advances 1/`fps` seconds toward `input_at(frame)`'s target, carried by the mean of the
-/// velocities of the frames at both ends of the interval where both are known. Frames
+/// advances 1/`fps` seconds toward `input_at(frame)`'s target, carried by the velocities
+/// of the frames at the ends of the interval as `timing` says. Frames
 /// before `write_from` are a warm-up (a farm chunk converging to the sequential run) and
 /// write nothing. With `outputs.resume()`, starts after the last skin VDB already written
 /// from `write_from` on.
@@ -81,7 +81,7 @@ pub fn run<'t>(
     (first, last): (i64, i64),
     write_from: i64,
     mut skin: AnySkin,
-    fps: f64,
+    (fps, timing): (f64, Timing),
     outputs: &mut Outputs,
     mut input_at: impl FnMut(i64) -> Result<FrameInput<'t>, FrameError>,
 ) -> Result<(), FrameError> {
@@ -123,16 +123,8 @@ pub fn run<'t>(
                 None => None,
             };
             let substeps = {
-                let mean;
-                let flow: Option<&dyn Flow> = match (&before, &input.flow) {
-                    (Some(a), Some(b)) => {
-                        mean = Mean(&**a, &**b);
-                        Some(&mean)
-                    }
-                    (None, Some(b)) => Some(&**b),
-                    (Some(a), None) => Some(&**a),
-                    (None, None) => None,
-                };
+                let mut mean = None;
+                let flow = timing.interval(before.as_deref(), input.flow.as_deref(), &mut mean);
                 skin.advance_in_flow(&*input.target, flow, 1.0 / fps)
                     .substeps
             };

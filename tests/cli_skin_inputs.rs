@@ -291,6 +291,49 @@ fn mantaflow_phi_in_voxels_with_background_0_is_read_in_world_units() {
     assert!(off_voxel < 0.1);
 }
 
+/// `--init` on another frame of a Mantaflow cache starts on its `--grid`, not on the
+/// file's first float grid (Mantaflow writes `phi_obstacle` and others beside `phi`), in
+/// the units the target's are read in.
+#[test]
+fn init_from_a_cache_frame_reads_the_targets_grid() {
+    let dir = common::scratch();
+    let write = |path: &Path, radius: f32| {
+        let mut obstacle = mantaflow_dense(|p| 0.9 - (p - Vec3::splat(1.0)).abs().max_element());
+        obstacle.name = "phi_obstacle".into();
+        let phi = mantaflow_dense(|p| (p - Vec3::splat(1.0)).length() - radius);
+        let grids = [obstacle, phi].map(|g| activeskin::vdb::Grid::from_data(&g).unwrap());
+        let meta = activeskin::vdb::frame_metadata(1);
+        let grids: Vec<_> = grids.iter().map(|g| (g, Default::default())).collect();
+        activeskin::vdb::write_grids(path, &grids, &meta).unwrap();
+    };
+    write(&dir.path().join("fluid_data_0001.vdb"), 0.4);
+    write(&dir.path().join("fluid_data_0002.vdb"), 0.4);
+    let init = dir.path().join("init.vdb");
+    write(&init, 0.25);
+    let target = dir.path().join("fluid_data_####.vdb");
+    let mesh = dir.path().join("skin.####.obj");
+    let result = activeskin(&[
+        "skin",
+        "--target",
+        target.to_str().unwrap(),
+        "--grid",
+        "phi",
+        "--init",
+        init.to_str().unwrap(),
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_ok(&result);
+    let first = common::read_mesh(&dir.path().join("skin.0001.obj")).unwrap();
+    let off = first
+        .positions
+        .iter()
+        .map(|p| ((*p - Vec3::splat(1.0)).length() - 0.25).abs() * 32.0)
+        .fold(0.0f32, f32::max);
+    assert!(off < 0.1, "the first skin is {off} voxels off init's phi");
+}
+
 #[test]
 fn one_file_is_a_static_target_held_for_the_frames() {
     let dir = common::scratch();

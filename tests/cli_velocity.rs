@@ -46,8 +46,20 @@ fn write_sequence_in(
     half: bool,
     per_world: f32,
 ) -> String {
+    let velocity_at = |_, p| velocity(p) * per_world;
+    write_frames(dir, (vel_name, staggered, half), sphere, velocity_at)
+}
+
+/// Writes `liquid.####.vdb` for frames 1..=FRAMES: the level set of `sphere_at(frame)` and
+/// `velocity_at(frame, p)` over its voxels, named, staggered and as half floats as given.
+fn write_frames(
+    dir: &Path,
+    (vel_name, staggered, half): (&str, bool, bool),
+    sphere_at: impl Fn(i64) -> Sphere,
+    velocity_at: impl Fn(i64, Vec3) -> Vec3,
+) -> String {
     for frame in 1..=FRAMES {
-        let s = sphere(frame);
+        let s = sphere_at(frame);
         let grid = Grid::from_data(&sample::level_set(&s, DX, 3.0)).unwrap();
         let (lo, hi) = (
             ((s.center - s.radius) / DX).floor().as_ivec3(),
@@ -67,7 +79,7 @@ fn write_sequence_in(
                         if staggered {
                             p[c] -= 0.5;
                         }
-                        velocity(p * DX)[c] * per_world
+                        velocity_at(frame, p * DX)[c]
                     }));
                 }
             }
@@ -91,6 +103,16 @@ fn write_sequence_in(
 /// Runs `skin` on `target` with `extra`; returns the mean distance of the last six frames'
 /// meshes to the clean sphere (voxels) and stderr.
 fn run(dir: &Path, target: &str, extra: &[&str]) -> (f64, String) {
+    run_against(dir, target, extra, sphere)
+}
+
+/// [`run`] on a sequence of the spheres `sphere_at`.
+fn run_against(
+    dir: &Path,
+    target: &str,
+    extra: &[&str],
+    sphere_at: impl Fn(i64) -> Sphere,
+) -> (f64, String) {
     let mesh = dir.join("skin.####.obj").to_string_lossy().into_owned();
     let mut args = vec!["skin", "--target", target, "--mesh", &mesh, "--alpha", "4"];
     args.extend_from_slice(extra);
@@ -99,7 +121,7 @@ fn run(dir: &Path, target: &str, extra: &[&str]) -> (f64, String) {
     let mut sum = 0.0;
     for frame in FRAMES - 5..=FRAMES {
         let mesh = read_mesh(&dir.join(format!("skin.{frame:04}.obj"))).unwrap();
-        let s = sphere(frame);
+        let s = sphere_at(frame);
         let d: f64 = mesh
             .positions
             .iter()
@@ -260,6 +282,68 @@ fn the_velocitys_units_are_measured_from_the_motion() {
         );
         assert_eq!(fit["pairs"].as_array().unwrap().len(), 3, "{fit}");
         assert!(carried < 0.2, "{units}: {carried}");
+    }
+}
+
+/// A ball falling faster each frame (from 0.5 world units/s at frame 1, 4.9 /s² down: 3
+/// voxels a frame by the last) and its velocity, as a cache whose frame velocity carries
+/// the ball to the next frame (`start`, a grid solver's), or whose two frames' mean does
+/// (`mid`, an SPH solver's).
+fn falling(mid: bool) -> (impl Fn(i64) -> Sphere, impl Fn(i64, Vec3) -> Vec3) {
+    const ACCELERATION: f32 = -4.9;
+    let dt = 1.0 / 24.0;
+    let speed = move |frame: i64| -0.5 + ACCELERATION * dt * (frame - 1) as f32;
+    let height = move |frame: i64| {
+        (1..frame).fold(0.0, |z, f| {
+            z + dt
+                * if mid {
+                    0.5 * (speed(f) + speed(f + 1))
+                } else {
+                    speed(f)
+                }
+        })
+    };
+    let sphere_at = move |frame| Sphere {
+        center: Vec3::new(0.0, 0.0, height(frame)),
+        radius: 0.25,
+    };
+    (sphere_at, move |frame, _| Vec3::Z * speed(frame))
+}
+
+#[test]
+fn the_velocitys_timing_is_measured_from_the_motion() {
+    for (mid, timing) in [(false, "start"), (true, "mid")] {
+        let (sphere_at, velocity_at) = falling(mid);
+        let data = common::scratch();
+        let target = write_frames(data.path(), ("vel", true, false), &sphere_at, velocity_at);
+        let out = common::scratch();
+        let stats = out.path().join("stats.jsonl");
+        let stats = stats.to_string_lossy();
+        let (measured_run, notes) =
+            run_against(out.path(), &target, &["--stats", &stats], &sphere_at);
+        let fit = measured(out.path());
+        assert_eq!(fit["timing"], timing, "{fit}");
+        assert!(notes.contains(&format!("timing {timing}")), "{notes}");
+        let scale = fit["scale"].as_f64().unwrap();
+        assert!((scale - 1.0).abs() < 0.02, "{fit}");
+        // The other timing, given: the ball is carried off by the acceleration's step.
+        let other = if mid { "start" } else { "mid" };
+        let wrong = common::scratch();
+        let (wrong_run, _) = run_against(
+            wrong.path(),
+            &target,
+            &["--velocity-scale", "1", "--velocity-time", other],
+            &sphere_at,
+        );
+        println!(
+            "falling ball, a {timing} cache: timing {timing} measured, scale {scale:.4}, {measured_run:.3} voxel off; given {other}: {wrong_run:.3}; the other timing's scales {}",
+            fit["other_timing_scales"]
+        );
+        assert!(measured_run < 0.2, "{measured_run}");
+        assert!(
+            wrong_run > 2.0 * measured_run,
+            "{wrong_run} vs {measured_run}"
+        );
     }
 }
 

@@ -43,6 +43,29 @@ pub struct PhysicsArgs {
     pub warmup: Option<String>,
 }
 
+/// `--velocity-time`: which frames' velocities carry the liquid between two frames.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum VelocityTime {
+    /// Measured with the velocity's scale: the timing under which the scale comes out the
+    /// same on every frame pair.
+    Auto,
+    /// The earlier frame's velocity (grid and FLIP solvers: Houdini, Mantaflow).
+    Start,
+    /// The mean of both frames' (SPH solvers, many sub-steps per frame).
+    Mid,
+}
+
+impl VelocityTime {
+    /// The timing given, or `auto`'s when nothing was measured.
+    pub fn or(self, measured: activeskin::flow::Timing) -> activeskin::flow::Timing {
+        match self {
+            VelocityTime::Auto => measured,
+            VelocityTime::Start => activeskin::flow::Timing::Start,
+            VelocityTime::Mid => activeskin::flow::Timing::Mid,
+        }
+    }
+}
+
 /// What a start that is `d` voxels off the sequential skin fades to after the warm-up
 /// ([`PhysicsArgs::warmup_frames`] with `auto`): the attraction closes the gap as e^(−αt).
 pub const WARMUP_AUTO_FACTOR: f64 = 40.0;

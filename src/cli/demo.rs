@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use activeskin::flow::{Flow, Rigid};
+use activeskin::flow::{Flow, Rigid, Timing};
 use activeskin::particles::{self, splash};
 use activeskin::skin::AnySkin;
 use activeskin::target::{iso_for_radius, Aabb, Blobs, Density, Sphere, Target, Union};
@@ -101,7 +101,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     let skin = AnySkin::new(&Blobs::fig7_points(), fig7.params(dx)?);
     let spheres = Union::fig7_spheres();
     let out = outputs(&args.out, "fig7", args.quiet);
-    run_frames((1, 48), 1, skin, fig7.fps, &out, |_| {
+    run_frames((1, 48), 1, skin, (fig7.fps, Timing::Start), &out, |_| {
         Ok(FrameInput::target(Box::new(&spheres)))
     })?;
 
@@ -109,7 +109,8 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     let moving = physics(4.0, 0.0005);
     let skin = AnySkin::new(&Orbiting { time: 0.0 }, moving.params(dx)?);
     let out = outputs(&args.out, "orbit", args.quiet);
-    run_frames((1, 48), 1, skin, moving.fps, &out, |frame| {
+    // An analytic velocity, exact at each frame: the mean of both ends is second order.
+    run_frames((1, 48), 1, skin, (moving.fps, Timing::Mid), &out, |frame| {
         let time = (frame - 1) as f32 / 24.0;
         Ok(FrameInput {
             target: Box::new(Orbiting { time }),
@@ -143,7 +144,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         (1, clouds.len() as i64),
         1,
         skin,
-        liquid.fps,
+        (liquid.fps, Timing::Start),
         &out,
         |frame| {
             Ok(FrameInput {

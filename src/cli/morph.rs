@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use activeskin::flow::Timing;
 use activeskin::skin::AnySkin;
 use activeskin::target::{Blobs, Sphere, Target, Torus, Union};
 use glam::Vec3;
@@ -85,7 +86,7 @@ pub fn run(args: &MorphArgs) -> anyhow::Result<()> {
         range,
         range.0,
         skin,
-        args.physics.fps,
+        (args.physics.fps, Timing::Start),
         &args.outputs,
         |_| Ok(FrameInput::target(Box::new(to))),
     )

@@ -5,11 +5,11 @@ use activeskin::frames::{FrameError, FrameInput, ParticleInput};
 use activeskin::skin::AnySkin;
 use std::sync::Arc;
 
-use activeskin::flow::Flow;
+use activeskin::flow::{Flow, Timing};
 use activeskin::target::{fluid_iso, DensityGrid, DEFAULT_SMOOTHING_LENGTH};
 use anyhow::Context;
 
-use super::args::{OutputArgs, PhysicsArgs};
+use super::args::{OutputArgs, PhysicsArgs, VelocityTime};
 use super::farm::Shot;
 use super::pattern_arg;
 use super::skin::{input_frames, run_frames, warm_up};
@@ -49,6 +49,11 @@ pub struct ParticlesArgs {
     /// Multiplies the particles' velocities into world units per second.
     #[arg(long, default_value_t = 1.0)]
     velocity_scale: f32,
+    /// Which frames' velocities carry the liquid from one frame to the next: `mid` (the
+    /// mean of both: SPH, many sub-steps per frame) or `start` (the earlier frame's: FLIP
+    /// particles). Particles carry no distance to measure it on, so no `auto`.
+    #[arg(long, value_enum, default_value_t = VelocityTime::Mid)]
+    velocity_time: VelocityTime,
     #[command(flatten)]
     physics: PhysicsArgs,
     #[command(flatten)]
@@ -101,6 +106,10 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
         dx: params.dx,
         velocity_scale: (!args.no_velocity).then_some(args.velocity_scale),
     };
+    if args.velocity_time == VelocityTime::Auto {
+        usage!("--velocity-time auto needs level sets to measure on: give start or mid");
+    }
+    let timing = args.velocity_time.or(Timing::Mid);
     if !args.velocity_scale.is_finite() {
         usage!(
             "--velocity-scale must be a number, got {}",
@@ -139,7 +148,7 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
         range,
         write_from,
         skin,
-        args.physics.fps,
+        (args.physics.fps, timing),
         &args.outputs,
         |frame| {
             let density = match first.take() {

@@ -3,15 +3,15 @@
 
 use std::path::PathBuf;
 
-use activeskin::flow::Flow;
+use activeskin::flow::{Flow, Timing};
 use activeskin::frames::{
-    self, read_target, read_target_in, FrameError, FrameInput, InputFrames, Outputs, ScaleEstimate,
-    TargetRead, TargetUnits, VelocityInput, VelocitySource,
+    self, read_target_in, FrameError, FrameInput, InputFrames, Outputs, ScaleEstimate, TargetRead,
+    TargetUnits, VelocityInput, VelocitySource,
 };
 use activeskin::sequence::parse_range;
 use activeskin::skin::AnySkin;
 
-use super::args::{OutputArgs, PhysicsArgs};
+use super::args::{OutputArgs, PhysicsArgs, VelocityTime};
 use super::farm::Shot;
 use super::{bad_usage, pattern_arg};
 
@@ -36,7 +36,9 @@ pub struct SkinArgs {
     /// rescales (e.g. Mantaflow's `phi`, in voxels), saying so; `world` or `voxel`.
     #[arg(long, value_enum, default_value_t = Units::Auto)]
     target_units: Units,
-    /// Start the skin on this VDB level set instead of the first target.
+    /// Start the skin on this VDB level set instead of the first target (its --grid when
+    /// it has one of that name, e.g. another frame of the same cache; else its first
+    /// float grid).
     #[arg(long)]
     init: Option<PathBuf>,
     #[command(flatten)]
@@ -84,7 +86,7 @@ pub fn run_frames<'t>(
     range: (i64, i64),
     write_from: i64,
     skin: AnySkin,
-    fps: f64,
+    motion: (f64, Timing),
     outputs: &OutputArgs,
     input_at: impl FnMut(i64) -> Result<FrameInput<'t>, FrameError>,
 ) -> anyhow::Result<()> {
@@ -93,7 +95,7 @@ pub fn run_frames<'t>(
         range,
         write_from,
         skin,
-        fps,
+        motion,
         &mut outputs,
         input_at,
     )?)
@@ -129,6 +131,12 @@ pub struct VelocityArgs {
     /// velocity out when it does not explain that motion).
     #[arg(long, default_value = "auto")]
     velocity_scale: String,
+    /// Which frames' velocities carry the liquid from one frame to the next: `start` (the
+    /// earlier frame's: Houdini FLIP, Mantaflow), `mid` (the mean of both: SPH), or `auto`,
+    /// measured with an `auto` scale (the timing that gives every frame pair the same
+    /// scale; `start` when the scale is given).
+    #[arg(long, value_enum, default_value_t = VelocityTime::Auto)]
+    velocity_time: VelocityTime,
 }
 
 impl VelocityArgs {
@@ -172,10 +180,15 @@ fn settle_scale(
     if velocity.source == VelocitySource::Off {
         return Ok(None);
     }
+    let timing = match args.velocity.velocity_time {
+        VelocityTime::Auto => None,
+        given => Some(given.or(Timing::Start)),
+    };
     let estimate = velocity.measure_scale(
         input,
         (args.grid.as_deref(), args.target_units.into()),
         args.physics.fps,
+        timing,
     )?;
     let Some(((a, _), _)) = estimate.fits.first() else {
         return Ok(None);
@@ -199,8 +212,17 @@ fn settle_scale(
                 .iter()
                 .map(|f| f.1.r2)
                 .fold(f64::MAX, f64::min);
+            let timing = match estimate.timing {
+                Timing::Start => "start (each frame's velocity carries the liquid to the next)",
+                Timing::Mid => "mid (the mean of both frames' velocities carries it)",
+            };
+            let how = if args.velocity.velocity_time == VelocityTime::Auto {
+                "measured"
+            } else {
+                "given"
+            };
             say(format!(
-                "velocity: scale {k:.4} measured from frames {a}–{b} (R² ≥ {r2:.2}); --velocity-scale to override"
+                "velocity: scale {k:.4} measured from frames {a}–{b} (R² ≥ {r2:.2}), timing {timing} {how}; --velocity-scale, --velocity-time to override"
             ));
         }
         None => {
@@ -221,11 +243,20 @@ pub fn shot(args: &SkinArgs) -> anyhow::Result<Shot<'_>> {
     let input = input_frames("--target", &args.target, args.frames.as_deref())?;
     let (mut velocity, auto_scale) = args.velocity.input()?;
     let mut fixed = Vec::new();
-    if auto_scale && settle_scale(&mut velocity, &input, args)?.is_some() {
+    let estimate = if auto_scale {
+        settle_scale(&mut velocity, &input, args)?
+    } else {
+        None
+    };
+    let timing = velocity_timing(args, estimate.as_ref());
+    if estimate.is_some() {
         fixed = match velocity.source {
             VelocitySource::Off => vec!["--no-velocity".into()],
             _ => vec!["--velocity-scale".into(), velocity.scale.to_string()],
         };
+        if args.velocity.velocity_time == VelocityTime::Auto {
+            fixed.extend(["--velocity-time".into(), timing.name().into()]);
+        }
     }
     Ok(Shot {
         range: input.range,
@@ -233,6 +264,13 @@ pub fn shot(args: &SkinArgs) -> anyhow::Result<Shot<'_>> {
         outputs: &args.outputs,
         fixed,
     })
+}
+
+/// The timing given, or measured with the scale, or [`Timing::Start`].
+fn velocity_timing(args: &SkinArgs, estimate: Option<&ScaleEstimate>) -> Timing {
+    args.velocity
+        .velocity_time
+        .or(estimate.map_or(Timing::Start, |e| e.timing))
 }
 
 pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
@@ -280,7 +318,12 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
     let params = args.physics.params(dx)?;
     let skin = match &args.init {
         Some(path) => {
-            let (init, _) = read_target(path, None, None)?;
+            let has_grid = |name: &&str| {
+                activeskin::vdb::grid_types(path)
+                    .is_ok_and(|grids| grids.iter().any(|(g, _)| g == name))
+            };
+            let grid = args.grid.as_deref().filter(has_grid);
+            let init = read_target_in(path, grid, None, units)?.target;
             AnySkin::new(&*init, params)
         }
         None => AnySkin::new(&*first_target, params),
@@ -296,7 +339,7 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
         range,
         write_from,
         skin,
-        args.physics.fps,
+        (args.physics.fps, velocity_timing(args, estimate.as_ref())),
         &mut outputs,
         input_at,
     )?)

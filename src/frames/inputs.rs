@@ -6,7 +6,7 @@ use glam::Vec3;
 
 use super::FrameError;
 use crate::flow::scale::{self, ScaleFit};
-use crate::flow::{GridFlow, Mean};
+use crate::flow::{GridFlow, Timing};
 use crate::particles;
 use crate::sequence::{FramePattern, PatternError};
 use crate::target::{rest_density, Density, DensityGrid, FogTarget, LevelSetTarget, Target};
@@ -360,10 +360,14 @@ impl VelocityInput {
 /// The velocity's scale as measured by [`VelocityInput::measure_scale`].
 #[derive(Debug, Clone)]
 pub struct ScaleEstimate {
-    /// The median of the good fits; `None` when no pair fits well.
+    /// The median of the good fits under `timing`; `None` when no pair fits well.
     pub scale: Option<f64>,
-    /// Each frame pair tried, with its fit.
+    /// The timing chosen ([`scale::choose_timing`]), or given.
+    pub timing: Timing,
+    /// Each frame pair tried, with its fit under `timing`.
     pub fits: Vec<((i64, i64), ScaleFit)>,
+    /// The same pairs' fits under the other timing, when it was tried.
+    pub other: Vec<ScaleFit>,
 }
 
 impl ScaleEstimate {
@@ -371,9 +375,11 @@ impl ScaleEstimate {
     pub fn to_json(&self) -> serde_json::Value {
         serde_json::json!({
             "scale": self.scale,
+            "timing": self.timing.name(),
             "pairs": self.fits.iter().map(|((a, b), f)| serde_json::json!({
                 "frames": [a, b], "scale": f.scale, "r2": f.r2, "samples": f.samples,
             })).collect::<Vec<_>>(),
+            "other_timing_scales": self.other.iter().map(|f| f.scale).collect::<Vec<_>>(),
         })
     }
 }
@@ -388,14 +394,21 @@ impl VelocityInput {
     /// first frame pairs of `frames` whose level sets (grid `grid`, distances in `units`)
     /// and velocities exist:
     /// the surface's own motion between them against the velocity's prediction
-    /// ([`scale::fit`]), over the voxels within 1.5 voxels of the earlier surface.
+    /// ([`scale::fit`]), over the voxels within 1.5 voxels of the earlier surface. Under
+    /// `timing`, or under each timing when `None`, keeping the one that fits
+    /// ([`scale::choose_timing`]).
     pub fn measure_scale(
         &self,
         input: &InputFrames,
         (grid, units): (Option<&str>, TargetUnits),
         fps: f64,
+        timing: Option<Timing>,
     ) -> Result<ScaleEstimate, FrameError> {
-        let mut fits = Vec::new();
+        let timings = match timing {
+            Some(t) => vec![t],
+            None => vec![Timing::Start, Timing::Mid],
+        };
+        let mut fits: Vec<((i64, i64), Vec<ScaleFit>)> = Vec::new();
         let unscaled = VelocityInput {
             scale: 1.0,
             ..self.clone()
@@ -415,27 +428,42 @@ impl VelocityInput {
             // A pair without velocity or level sets, or a frame that cannot be read, ends
             // the measurement (the run reports a bad frame when it gets there, after writing
             // the frames before).
-            match fit_pair(&unscaled, input, (grid, units), (a, b), fps) {
+            match fit_pair(&unscaled, input, (grid, units), (a, b), fps, &timings) {
                 Ok(Some(fit)) => fits.push(((a, b), fit)),
                 Ok(None) | Err(_) => break,
             }
         }
-        let good: Vec<ScaleFit> = fits.iter().map(|(_, f)| *f).collect();
+        let under = |i: usize| fits.iter().map(|(_, f)| f[i]).collect::<Vec<ScaleFit>>();
+        let candidates: Vec<(Timing, Vec<ScaleFit>)> = timings
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| (t, under(i)))
+            .collect();
+        let (chosen, scale) = scale::choose_timing(&candidates);
+        let index = timings.iter().position(|&t| t == chosen).unwrap_or(0);
         Ok(ScaleEstimate {
-            scale: scale::median_scale(&good),
-            fits,
+            scale,
+            timing: chosen,
+            fits: fits.iter().map(|(pair, f)| (*pair, f[index])).collect(),
+            other: fits
+                .iter()
+                .flat_map(|(_, f)| f.iter().enumerate().filter(|&(i, _)| i != index))
+                .map(|(_, f)| *f)
+                .collect(),
         })
     }
 }
 
-/// The fit of one frame pair; `None` when a frame lacks a velocity or is not a level set.
+/// The fits of one frame pair under each of `timings`; `None` when a frame lacks a
+/// velocity or is not a level set.
 fn fit_pair(
     unscaled: &VelocityInput,
     input: &InputFrames,
     (grid, units): (Option<&str>, TargetUnits),
     (a, b): (i64, i64),
     fps: f64,
-) -> Result<Option<ScaleFit>, FrameError> {
+    timings: &[Timing],
+) -> Result<Option<Vec<ScaleFit>>, FrameError> {
     let (path_a, path_b) = (input.pattern.path(a), input.pattern.path(b));
     let mut quiet = |_: String| {};
     let (Some(flow_a), Some(flow_b)) = (
@@ -458,15 +486,17 @@ fn fit_pair(
     let points = band_points(&data_a, 1.5 * dx);
     let step = points.len().div_ceil(SCALE_POINTS).max(1);
     let points: Vec<Vec3> = points.into_iter().step_by(step).collect();
-    let fit = scale::fit(
-        &LevelSetTarget::new(&data_a),
-        &LevelSetTarget::new(&data_b),
-        &Mean(&flow_a, &flow_b),
-        &points,
-        (1.0 / fps) as f32,
-        0.5 * dx,
-    );
-    Ok(Some(fit))
+    let (before, after) = (LevelSetTarget::new(&data_a), LevelSetTarget::new(&data_b));
+    let fits = timings
+        .iter()
+        .map(|timing| {
+            let mut mean = None;
+            let flow = timing.interval(Some(&flow_a), Some(&flow_b), &mut mean);
+            let flow = flow.expect("both frames have a flow");
+            scale::fit(&before, &after, flow, &points, (1.0 / fps) as f32, 0.5 * dx)
+        })
+        .collect();
+    Ok(Some(fits))
 }
 
 /// World positions of a level set's active voxels with |φ| < `within`.
