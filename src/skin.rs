@@ -17,6 +17,7 @@ use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::flow::{Backtracked, Flow, OnNodes};
+use crate::grid::tube::{self, Reach};
 use crate::grid::{offset_coords, Halo, Potential, Precision, SparseGrid, BLOCK_DIM, BLOCK_NODES};
 use crate::mesh::Mesh;
 use crate::polygonize::{Crossings, IndexToWorld, Polygonizer};
@@ -222,6 +223,10 @@ impl<P: Potential> Skin<P> {
     ) -> StepStats {
         let mut remaining = duration;
         let mut substeps = 0;
+        if flow.is_some() {
+            // The first sub-step's advection reaches as far as the others'.
+            tube::upkeep_reaching(&mut self.grid, Reach::Cube);
+        }
         let mut on_nodes = flow
             .filter(|f| f.costly())
             .map(|f| OnNodes::new(f, self.xf));
@@ -418,13 +423,13 @@ impl<P: Potential> Skin<P> {
         // reads, keep their carried values: the first-order Eikonal sweep would bias them
         // every step (a sphere of 8 voxels lost 4 % of its volume a turn; kept within 1, 1.5,
         // 2 and 2.5 voxels: −3.0, +0.1, +0.6, +1.0 %).
-        let keep = if let Some(flow) = flow {
+        let (keep, reach) = if let Some(flow) = flow {
             advect::maccormack(&mut self.grid, flow, self.xf, dt, &mut self.advect_scratch);
-            1.5 / w
+            (1.5 / w, Reach::Cube)
         } else {
-            0.0
+            (0.0, Reach::Faces)
         };
-        crate::grid::tube::upkeep(&mut self.grid);
+        tube::upkeep_reaching(&mut self.grid, reach);
         for _ in 0..self.params.renormalize_sweeps {
             band::renormalize(&mut self.grid, w, keep, &mut self.rates);
         }

@@ -1,6 +1,7 @@
 //! The tube of active nodes (paper §4.1, §4.5): every node with |f| < 1 and its six
-//! neighbours. After an update, blocks next to a band node are woken (stored, at their
-//! tile's side) and blocks left with no active node retire into inside / outside tiles.
+//! neighbours (or its 26, when a flow carries the skin). After an update, blocks next to a
+//! band node are woken (stored, at their tile's side) and blocks left with no active node
+//! retire into inside / outside tiles.
 
 use glam::IVec3;
 use rayon::prelude::*;
@@ -12,10 +13,27 @@ fn in_band(f: f32) -> bool {
     f.abs() < 1.0
 }
 
+/// How far the tube reaches past the band.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reach {
+    /// The six face neighbours: the surface may move half a voxel a step (the paper's
+    /// tube; the attraction's steps move it at most the safety factor, 0.5).
+    Faces,
+    /// All 26 neighbours: the surface may move a voxel a step in any direction. A flow
+    /// moves it up to 0.9 voxel a step; across the faces' tube a diagonal front gains
+    /// only 1/√3 voxel a step, and the nodes it reaches were never advected.
+    Cube,
+}
+
 /// After an update: every node with |f| < 1 gets its six neighbours stored (a woken node
 /// starts at its tile's side, ±1); the active set becomes those nodes and their
 /// neighbours; blocks left with no active node retire into inside / outside tiles.
 pub fn upkeep<P: Potential>(grid: &mut SparseGrid<P>) {
+    upkeep_reaching(grid, Reach::Faces);
+}
+
+/// [`upkeep`] with the tube reaching `reach` past the band.
+pub fn upkeep_reaching<P: Potential>(grid: &mut SparseGrid<P>, reach: Reach) {
     // Which face neighbours each block needs: bit 2·axis for −, 2·axis + 1 for +.
     let wake: Vec<(IVec3, u8)> = grid
         .blocks()
@@ -23,10 +41,28 @@ pub fn upkeep<P: Potential>(grid: &mut SparseGrid<P>) {
         .map(|block| (block.coord, faces_in_band(&block.values)))
         .collect();
     for (coord, faces) in wake {
-        for axis in 0..3 {
-            for (bit, step) in [(2 * axis, -1), (2 * axis + 1, 1)] {
-                if faces >> bit & 1 == 1 {
-                    grid.touch(coord + IVec3::AXES[axis] * step);
+        match reach {
+            Reach::Faces => {
+                for axis in 0..3 {
+                    for (bit, step) in [(2 * axis, -1), (2 * axis + 1, 1)] {
+                        if faces >> bit & 1 == 1 {
+                            grid.touch(coord + IVec3::AXES[axis] * step);
+                        }
+                    }
+                }
+            }
+            // Every neighbour across the faces, edges and corners those faces meet at.
+            Reach::Cube => {
+                let side = |axis: usize, step: i32| match step {
+                    -1 => faces >> (2 * axis) & 1 == 1,
+                    1 => faces >> (2 * axis + 1) & 1 == 1,
+                    _ => true,
+                };
+                for step in super::AROUND {
+                    let crossed = (0..3).all(|a| side(a, step[a]));
+                    if step != IVec3::ZERO && crossed {
+                        grid.touch(coord + step);
+                    }
                 }
             }
         }
@@ -37,7 +73,7 @@ pub fn upkeep<P: Potential>(grid: &mut SparseGrid<P>) {
         .par_iter()
         .map_init(Box::<Halo>::default, |halo, block| {
             halo.gather(grid, block.coord);
-            dilated_band(halo)
+            dilated_band(halo, reach)
         })
         .collect();
     for (block, mask) in grid.blocks_mut().iter_mut().zip(masks) {
@@ -79,9 +115,10 @@ fn faces_in_band<P: Potential>(values: &[P; BLOCK_NODES]) -> u8 {
     faces
 }
 
-/// The active mask of a block: its nodes in the band or with a face neighbour in it,
-/// as bit rows along z (mask word x, bit 8·y + z, matching the node offsets).
-fn dilated_band(halo: &Halo) -> [u64; 8] {
+/// The active mask of a block: its nodes in the band or with a neighbour in it (across a
+/// face, or any of the 26 as `reach` says), as bit rows along z (mask word x, bit 8·y + z,
+/// matching the node offsets).
+fn dilated_band(halo: &Halo, reach: Reach) -> [u64; 8] {
     const ROWS: usize = HALO_DIM;
     let mut rows = [[0u16; ROWS]; ROWS];
     for (hx, plane) in rows.iter_mut().enumerate() {
@@ -95,13 +132,19 @@ fn dilated_band(halo: &Halo) -> [u64; 8] {
         for y in 0..BLOCK_DIM as usize {
             let (i, j) = (x + 1, y + 1);
             let r = rows[i][j];
-            let near = r
-                | r << 1
-                | r >> 1
-                | rows[i - 1][j]
-                | rows[i + 1][j]
-                | rows[i][j - 1]
-                | rows[i][j + 1];
+            let near = match reach {
+                Reach::Faces => {
+                    r | r << 1
+                        | r >> 1
+                        | rows[i - 1][j]
+                        | rows[i + 1][j]
+                        | rows[i][j - 1]
+                        | rows[i][j + 1]
+                }
+                Reach::Cube => (i - 1..=i + 1)
+                    .flat_map(|a| rows[a][j - 1..=j + 1].iter())
+                    .fold(0, |near, &q| near | q | q << 1 | q >> 1),
+            };
             *word |= u64::from((near >> 1) & 0xFF) << (8 * y);
         }
     }
@@ -110,7 +153,8 @@ fn dilated_band(halo: &Halo) -> [u64; 8] {
 
 #[cfg(test)]
 mod tests {
-    use super::{dilated_band, faces_in_band, in_band};
+    use super::{dilated_band, faces_in_band, in_band, Reach};
+    use crate::grid::AROUND;
     use crate::grid::{node_offset, offset_coords, Halo, BLOCK_NODES};
     use glam::IVec3;
 
@@ -131,12 +175,15 @@ mod tests {
             let mut next = scattered(seed);
             let mut halo = Halo::default();
             halo.values.iter_mut().for_each(|v| *v = next());
-            let mask = dilated_band(&halo);
+            let faces = dilated_band(&halo, Reach::Faces);
+            let cube = dilated_band(&halo, Reach::Cube);
             for offset in 0..BLOCK_NODES {
                 let l = offset_coords(offset);
                 let at = |p: IVec3| in_band(halo.at(p.x, p.y, p.z));
                 let near = at(l) || IVec3::AXES.iter().any(|&e| at(l - e) || at(l + e));
-                assert_eq!(mask[offset >> 6] >> (offset & 63) & 1 == 1, near, "{l}");
+                assert_eq!(faces[offset >> 6] >> (offset & 63) & 1 == 1, near, "{l}");
+                let near = AROUND.iter().any(|&e| at(l + e));
+                assert_eq!(cube[offset >> 6] >> (offset & 63) & 1 == 1, near, "{l}");
             }
         }
     }
