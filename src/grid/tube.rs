@@ -51,20 +51,16 @@ pub fn upkeep_reaching<P: Potential>(grid: &mut SparseGrid<P>, reach: Reach) {
                     }
                 }
             }
-            // Every neighbour across the faces, edges and corners those faces meet at.
-            Reach::Cube => {
-                let side = |axis: usize, step: i32| match step {
-                    -1 => faces >> (2 * axis) & 1 == 1,
-                    1 => faces >> (2 * axis + 1) & 1 == 1,
-                    _ => true,
-                };
-                for step in super::AROUND {
-                    let crossed = (0..3).all(|a| side(a, step[a]));
-                    if step != IVec3::ZERO && crossed {
-                        grid.touch(coord + step);
+            // The neighbours across the faces, edges and corners band nodes lie on.
+            Reach::Cube if faces != 0 => {
+                let needed = neighbours_reached(grid.block(grid.find(coord).expect("stored")));
+                for (n, step) in super::AROUND.iter().enumerate() {
+                    if needed >> n & 1 == 1 {
+                        grid.touch(coord + *step);
                     }
                 }
             }
+            Reach::Cube => {}
         }
     }
 
@@ -113,6 +109,44 @@ fn faces_in_band<P: Potential>(values: &[P; BLOCK_NODES]) -> u8 {
         }
     }
     faces
+}
+
+/// The blocks around a block (bit n for [`super::AROUND`]'s step n) that its band nodes'
+/// 26 neighbours reach: across the faces, edges and corners those nodes lie on.
+fn neighbours_reached<P: Potential>(block: &super::Block<P>) -> u32 {
+    let last = BLOCK_DIM - 1;
+    let mut needed = 0u32;
+    for (offset, v) in block.values.iter().enumerate() {
+        let l = super::offset_coords(offset);
+        let on = l.cmpeq(IVec3::ZERO) | l.cmpeq(IVec3::splat(last));
+        if !on.any() || !in_band(v.to_f32()) {
+            continue;
+        }
+        let out = IVec3::select(l.cmpeq(IVec3::ZERO), IVec3::NEG_ONE, IVec3::ONE);
+        // Each sub-combination of the sides the node lies on.
+        for pick in 1..8 {
+            let step = IVec3::new(
+                if pick & 1 != 0 && on.test(0) {
+                    out.x
+                } else {
+                    0
+                },
+                if pick & 2 != 0 && on.test(1) {
+                    out.y
+                } else {
+                    0
+                },
+                if pick & 4 != 0 && on.test(2) {
+                    out.z
+                } else {
+                    0
+                },
+            );
+            let n = ((step.x + 1) * 9 + (step.y + 1) * 3 + step.z + 1) as u32;
+            needed |= 1 << n;
+        }
+    }
+    needed & !(1 << 13)
 }
 
 /// The active mask of a block: its nodes in the band or with a neighbour in it (across a
@@ -186,6 +220,44 @@ mod tests {
                 assert_eq!(cube[offset >> 6] >> (offset & 63) & 1 == 1, near, "{l}");
             }
         }
+    }
+
+    #[test]
+    fn a_band_node_reaches_the_blocks_across_the_faces_edges_and_corner_it_lies_on() {
+        let mut block = crate::grid::Block::<f32>::filled(IVec3::ZERO, 1.0);
+        let reached = |block: &crate::grid::Block<f32>| {
+            let bits = super::neighbours_reached(block);
+            AROUND
+                .iter()
+                .enumerate()
+                .filter(|(n, _)| bits >> n & 1 == 1)
+                .map(|(_, s)| *s)
+                .collect::<Vec<IVec3>>()
+        };
+        assert!(reached(&block).is_empty());
+        block.values[node_offset(3, 4, 5)] = 0.0; // inside: reaches no other block
+        assert!(reached(&block).is_empty());
+        block.values[node_offset(0, 4, 5)] = 0.5; // on the −x face
+        assert_eq!(reached(&block), vec![IVec3::new(-1, 0, 0)]);
+        block.values[node_offset(0, 4, 5)] = 1.0;
+        block.values[node_offset(7, 0, 5)] = -0.5; // on the +x −y edge
+        let mut edge = reached(&block);
+        edge.sort_by_key(|s| s.to_array());
+        assert_eq!(
+            edge,
+            vec![
+                IVec3::new(0, -1, 0),
+                IVec3::new(1, -1, 0),
+                IVec3::new(1, 0, 0)
+            ]
+        );
+        block.values[node_offset(7, 0, 5)] = 1.0;
+        block.values[node_offset(7, 7, 7)] = 0.2; // on the + + + corner
+        let corner = reached(&block);
+        assert_eq!(corner.len(), 7);
+        assert!(corner
+            .iter()
+            .all(|s| s.min_element() >= 0 && *s != IVec3::ZERO));
     }
 
     #[test]
