@@ -13,7 +13,7 @@ pub mod tube;
 use glam::IVec3;
 use hashbrown::{HashMap, HashSet};
 
-pub(crate) use halo::{Halo, WideHalo, HALO_DIM};
+pub(crate) use halo::{Halo, WideHalo, HALO_DIM, WIDE_DIM};
 
 /// Nodes along a block edge.
 pub const BLOCK_DIM: i32 = 8;

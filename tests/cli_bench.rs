@@ -17,6 +17,8 @@ fn bench_reports_every_ratio() {
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     for (section, key) in [
         ("step", "ratio"),
+        ("step_with_velocity", "ours_band_nodes_per_s"),
+        ("step_with_velocity", "against_velocity_off"),
         ("meshing", "speedup"),
         ("memory", "ratio_fixed16"),
         ("scaling", "exponent"),

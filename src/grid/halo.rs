@@ -110,7 +110,7 @@ impl Default for WideHalo {
 
 impl WideHalo {
     #[inline]
-    fn index(x: i32, y: i32, z: i32) -> usize {
+    pub(crate) fn index(x: i32, y: i32, z: i32) -> usize {
         ((x + 2) as usize * WIDE_DIM + (y + 2) as usize) * WIDE_DIM + (z + 2) as usize
     }
 

@@ -10,7 +10,9 @@ use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::flow::Flow;
-use crate::grid::{offset_coords, Potential, SparseGrid, WideHalo, BLOCK_DIM, BLOCK_NODES};
+use crate::grid::{
+    offset_coords, Potential, SparseGrid, WideHalo, BLOCK_DIM, BLOCK_NODES, WIDE_DIM,
+};
 use crate::polygonize::IndexToWorld;
 
 /// Scratch reused across steps, per node: the backward trace, the values before
@@ -41,37 +43,46 @@ fn cubic_weights(t: f32) -> [f32; 4] {
 /// the result (a cubic may overshoot them; the limiter keeps what it adds in between).
 #[inline]
 fn interpolate(halo: &WideHalo, p: Vec3) -> (f32, f32, f32) {
-    let b = p
-        .floor()
-        .as_ivec3()
+    // floor(p) for p > −2, without a libm call: the halo starts at −2.
+    let b = ((p + Vec3::splat(2.0)).as_ivec3() - IVec3::splat(2))
         .clamp(IVec3::splat(-1), IVec3::splat(7));
     let t = (p - b.as_vec3()).clamp(Vec3::ZERO, Vec3::ONE);
     let (wx, wy, wz) = (cubic_weights(t.x), cubic_weights(t.y), cubic_weights(t.z));
+    const X: usize = WIDE_DIM * WIDE_DIM;
+    const Y: usize = WIDE_DIM;
+    // The 4³ stencil from (b − 1); b − 1 ≥ −2 and b + 2 ≤ 9 keep it within the halo.
+    let corner = WideHalo::index(b.x - 1, b.y - 1, b.z - 1);
+    let values = &halo.values;
     let mut value = 0.0;
     for (i, wx) in wx.iter().enumerate() {
+        let mut plane = 0.0;
         for (j, wy) in wy.iter().enumerate() {
-            let mut row = 0.0;
-            for (k, wz) in wz.iter().enumerate() {
-                row += wz * halo.at(b.x + i as i32 - 1, b.y + j as i32 - 1, b.z + k as i32 - 1);
-            }
-            value += wx * wy * row;
+            let start = corner + i * X + j * Y;
+            let row: &[f32; 4] = values[start..start + 4].try_into().expect("4 nodes");
+            plane += wy * (wz[0] * row[0] + wz[1] * row[1] + wz[2] * row[2] + wz[3] * row[3]);
         }
+        value += wx * plane;
     }
+    let cell = corner + X + Y + 1;
     let (mut low, mut high) = (f32::INFINITY, f32::NEG_INFINITY);
-    for c in 0..8 {
-        let v = halo.at(b.x + (c & 1), b.y + (c >> 1 & 1), b.z + (c >> 2 & 1));
-        low = low.min(v);
-        high = high.max(v);
+    for start in [cell, cell + Y, cell + X, cell + X + Y] {
+        for &v in &values[start..start + 2] {
+            low = low.min(v);
+            high = high.max(v);
+        }
     }
     (value.clamp(low, high), low, high)
 }
 
-/// Where the material at `x` (world) was `dt` seconds ago (negative `dt`: will be), by
-/// the midpoint rule.
+/// Where the material at `x` (world) was `dt` seconds ago and where it will be `dt`
+/// seconds on, by the midpoint rule (the velocity at `x` read once for both).
 #[inline]
-fn trace(flow: &dyn Flow, x: Vec3, dt: f32) -> Vec3 {
-    let mid = x - flow.velocity(x) * (0.5 * dt);
-    x - flow.velocity(mid) * dt
+fn trace_both_ways(flow: &dyn Flow, x: Vec3, dt: f32) -> (Vec3, Vec3) {
+    let half = flow.velocity(x) * (0.5 * dt);
+    (
+        x - flow.velocity(x - half) * dt,
+        x + flow.velocity(x + half) * dt,
+    )
 }
 
 /// Advects the active nodes of `grid` (voxels `xf`) by `dt` seconds of `flow`.
@@ -117,8 +128,9 @@ pub(crate) fn maccormack<P: Potential>(
                 let local = |w: Vec3| (w - xf.origin) / xf.dx - base.as_vec3();
                 for offset in block.active_offsets() {
                     let x = xf.apply((base + offset_coords(offset)).as_vec3());
-                    ahead[offset] = local(trace(flow, x, -dt));
-                    let departure = local(trace(flow, x, dt));
+                    let (was, will_be) = trace_both_ways(flow, x, dt);
+                    ahead[offset] = local(will_be);
+                    let departure = local(was);
                     (out[offset], low[offset], high[offset]) = interpolate(halo, departure);
                 }
             },
