@@ -108,8 +108,10 @@ pub fn run<'t>(
             start = frame + 1;
         }
     }
-    // The velocity at the start of the interval being advanced: read again after a resume,
-    // as an uninterrupted run has it from the frame before.
+    // The velocity at the start of the interval being advanced: read again after a resume
+    // (and for the first interval), as an uninterrupted run has it from the frame before —
+    // even when this frame has none (an empty frame of a cache whose velocity the
+    // interval still uses).
     let mut previous: Option<Option<Box<dyn Flow + 't>>> = None;
     for frame in start..=last {
         let started = Instant::now();
@@ -119,8 +121,7 @@ pub fn run<'t>(
             let input = input_at(frame)?;
             let before = match previous.take() {
                 Some(flow) => flow,
-                None if input.flow.is_some() => input_at(frame - 1)?.flow,
-                None => None,
+                None => input_at(frame - 1)?.flow,
             };
             let substeps = {
                 let mut mean = None;

@@ -225,6 +225,12 @@ fn velocity_named_or_in_files_of_its_own() {
 fn a_resumed_run_in_a_flow_repeats_the_whole_run() {
     let data = common::scratch();
     let target = write_sequence(data.path(), "vel", true, false);
+    // Frame 8 without a velocity (as a cache's empty frame): the interval 7 → 8 is still
+    // carried by frame 7's, which the resumed run must read again.
+    common::write_grid(
+        &data.path().join("liquid.0008.vdb"),
+        &sample::level_set(&sphere(8), DX, 3.0),
+    );
     let go = |dir: &Path, frames: &str, resume: bool| {
         let file = |n: &str| dir.join(n).to_string_lossy().into_owned();
         let (out, mesh) = (file("s.####.vdb"), file("s.####.obj"));

@@ -6,7 +6,7 @@ use glam::Vec3;
 
 use super::FrameError;
 use crate::flow::scale::{self, ScaleFit};
-use crate::flow::{GridFlow, Timing};
+use crate::flow::{Flow, GridFlow, Mean, Timing};
 use crate::particles;
 use crate::sequence::{FramePattern, PatternError};
 use crate::target::{rest_density, Density, DensityGrid, FogTarget, LevelSetTarget, Target};
@@ -490,9 +490,11 @@ fn fit_pair(
     let fits = timings
         .iter()
         .map(|timing| {
-            let mut mean = None;
-            let flow = timing.interval(Some(&flow_a), Some(&flow_b), &mut mean);
-            let flow = flow.expect("both frames have a flow");
+            let mean = Mean(&flow_a, &flow_b);
+            let flow: &dyn Flow = match timing {
+                Timing::Start => &flow_a,
+                Timing::Mid => &mean,
+            };
             scale::fit(&before, &after, flow, &points, (1.0 / fps) as f32, 0.5 * dx)
         })
         .collect();
