@@ -117,7 +117,7 @@ pub(crate) struct Block<P> {
 }
 
 impl<P: Potential> Block<P> {
-    pub(crate) fn filled(coord: IVec3, value: P) -> Self {
+    fn filled(coord: IVec3, value: P) -> Self {
         Block {
             coord,
             values: [value; BLOCK_NODES],

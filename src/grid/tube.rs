@@ -34,33 +34,31 @@ pub fn upkeep<P: Potential>(grid: &mut SparseGrid<P>) {
 
 /// [`upkeep`] with the tube reaching `reach` past the band.
 pub fn upkeep_reaching<P: Potential>(grid: &mut SparseGrid<P>, reach: Reach) {
-    // Which face neighbours each block needs: bit 2·axis for −, 2·axis + 1 for +.
-    let wake: Vec<(IVec3, u8)> = grid
+    // The blocks around each block its band nodes reach (bit n: AROUND's step n).
+    let wake: Vec<(IVec3, u32)> = grid
         .blocks()
         .par_iter()
-        .map(|block| (block.coord, faces_in_band(&block.values)))
+        .map(|block| (block.coord, blocks_reached(&block.values)))
         .collect();
-    for (coord, faces) in wake {
+    let bit = |step: IVec3| 1u32 << ((step.x + 1) * 9 + (step.y + 1) * 3 + step.z + 1);
+    for (coord, reached) in wake {
         match reach {
             Reach::Faces => {
-                for axis in 0..3 {
-                    for (bit, step) in [(2 * axis, -1), (2 * axis + 1, 1)] {
-                        if faces >> bit & 1 == 1 {
-                            grid.touch(coord + IVec3::AXES[axis] * step);
+                for axis in IVec3::AXES {
+                    for step in [-axis, axis] {
+                        if reached & bit(step) != 0 {
+                            grid.touch(coord + step);
                         }
                     }
                 }
             }
-            // The neighbours across the faces, edges and corners band nodes lie on.
-            Reach::Cube if faces != 0 => {
-                let needed = neighbours_reached(grid.block(grid.find(coord).expect("stored")));
-                for (n, step) in super::AROUND.iter().enumerate() {
-                    if needed >> n & 1 == 1 {
-                        grid.touch(coord + *step);
+            Reach::Cube => {
+                for step in super::AROUND {
+                    if reached & bit(step) != 0 {
+                        grid.touch(coord + step);
                     }
                 }
             }
-            Reach::Cube => {}
         }
     }
 
@@ -87,12 +85,18 @@ fn band_bits<P: Potential>(values: &[P]) -> u16 {
         .fold(0, |bits, (k, v)| bits | u16::from(in_band(v.to_f32())) << k)
 }
 
-/// The faces of a block (bit 2·axis: low side, 2·axis + 1: high side) holding a node in
-/// the band.
-fn faces_in_band<P: Potential>(values: &[P; BLOCK_NODES]) -> u8 {
+/// The blocks around a block (bit n for [`super::AROUND`]'s step n, its own left out)
+/// that its band nodes' neighbours reach: across the faces, edges and corners those nodes
+/// lie on (the face steps alone for a tube of face neighbours).
+fn blocks_reached<P: Potential>(values: &[P; BLOCK_NODES]) -> u32 {
     const LOW: u16 = 1;
     const HIGH: u16 = 1 << (BLOCK_DIM - 1);
-    let mut faces = 0u8;
+    let side = |c: i32| match c {
+        0 => -1,
+        c if c == BLOCK_DIM - 1 => 1,
+        _ => 0,
+    };
+    let mut reached = 0u32;
     for x in 0..BLOCK_DIM {
         for y in 0..BLOCK_DIM {
             let start = node_offset(x, y, 0);
@@ -100,53 +104,20 @@ fn faces_in_band<P: Potential>(values: &[P; BLOCK_NODES]) -> u8 {
             if row == 0 {
                 continue;
             }
-            faces |= u8::from(x == 0)
-                | u8::from(x == BLOCK_DIM - 1) << 1
-                | u8::from(y == 0) << 2
-                | u8::from(y == BLOCK_DIM - 1) << 3
-                | u8::from(row & LOW != 0) << 4
-                | u8::from(row & HIGH != 0) << 5;
+            // Every node of the row is on the x and y sides of (x, y); its ends also on z's.
+            let zs = [(true, 0), (row & LOW != 0, -1), (row & HIGH != 0, 1)];
+            for sx in [0, side(x)] {
+                for sy in [0, side(y)] {
+                    for (on, sz) in zs {
+                        if on {
+                            reached |= 1 << ((sx + 1) * 9 + (sy + 1) * 3 + sz + 1);
+                        }
+                    }
+                }
+            }
         }
     }
-    faces
-}
-
-/// The blocks around a block (bit n for [`super::AROUND`]'s step n) that its band nodes'
-/// 26 neighbours reach: across the faces, edges and corners those nodes lie on.
-fn neighbours_reached<P: Potential>(block: &super::Block<P>) -> u32 {
-    let last = BLOCK_DIM - 1;
-    let mut needed = 0u32;
-    for (offset, v) in block.values.iter().enumerate() {
-        let l = super::offset_coords(offset);
-        let on = l.cmpeq(IVec3::ZERO) | l.cmpeq(IVec3::splat(last));
-        if !on.any() || !in_band(v.to_f32()) {
-            continue;
-        }
-        let out = IVec3::select(l.cmpeq(IVec3::ZERO), IVec3::NEG_ONE, IVec3::ONE);
-        // Each sub-combination of the sides the node lies on.
-        for pick in 1..8 {
-            let step = IVec3::new(
-                if pick & 1 != 0 && on.test(0) {
-                    out.x
-                } else {
-                    0
-                },
-                if pick & 2 != 0 && on.test(1) {
-                    out.y
-                } else {
-                    0
-                },
-                if pick & 4 != 0 && on.test(2) {
-                    out.z
-                } else {
-                    0
-                },
-            );
-            let n = ((step.x + 1) * 9 + (step.y + 1) * 3 + step.z + 1) as u32;
-            needed |= 1 << n;
-        }
-    }
-    needed & !(1 << 13)
+    reached & !(1 << 13)
 }
 
 /// The active mask of a block: its nodes in the band or with a neighbour in it (across a
@@ -187,7 +158,7 @@ fn dilated_band(halo: &Halo, reach: Reach) -> [u64; 8] {
 
 #[cfg(test)]
 mod tests {
-    use super::{dilated_band, faces_in_band, in_band, Reach};
+    use super::{blocks_reached, dilated_band, in_band, Reach};
     use crate::grid::AROUND;
     use crate::grid::{node_offset, offset_coords, Halo, BLOCK_NODES};
     use glam::IVec3;
@@ -224,9 +195,9 @@ mod tests {
 
     #[test]
     fn a_band_node_reaches_the_blocks_across_the_faces_edges_and_corner_it_lies_on() {
-        let mut block = crate::grid::Block::<f32>::filled(IVec3::ZERO, 1.0);
-        let reached = |block: &crate::grid::Block<f32>| {
-            let bits = super::neighbours_reached(block);
+        let mut block = [1.0f32; BLOCK_NODES];
+        let reached = |values: &[f32; BLOCK_NODES]| {
+            let bits = blocks_reached(values);
             AROUND
                 .iter()
                 .enumerate()
@@ -235,12 +206,12 @@ mod tests {
                 .collect::<Vec<IVec3>>()
         };
         assert!(reached(&block).is_empty());
-        block.values[node_offset(3, 4, 5)] = 0.0; // inside: reaches no other block
+        block[node_offset(3, 4, 5)] = 0.0; // inside: reaches no other block
         assert!(reached(&block).is_empty());
-        block.values[node_offset(0, 4, 5)] = 0.5; // on the −x face
+        block[node_offset(0, 4, 5)] = 0.5; // on the −x face
         assert_eq!(reached(&block), vec![IVec3::new(-1, 0, 0)]);
-        block.values[node_offset(0, 4, 5)] = 1.0;
-        block.values[node_offset(7, 0, 5)] = -0.5; // on the +x −y edge
+        block[node_offset(0, 4, 5)] = 1.0;
+        block[node_offset(7, 0, 5)] = -0.5; // on the +x −y edge
         let mut edge = reached(&block);
         edge.sort_by_key(|s| s.to_array());
         assert_eq!(
@@ -251,8 +222,8 @@ mod tests {
                 IVec3::new(1, 0, 0)
             ]
         );
-        block.values[node_offset(7, 0, 5)] = 1.0;
-        block.values[node_offset(7, 7, 7)] = 0.2; // on the + + + corner
+        block[node_offset(7, 0, 5)] = 1.0;
+        block[node_offset(7, 7, 7)] = 0.2; // on the + + + corner
         let corner = reached(&block);
         assert_eq!(corner.len(), 7);
         assert!(corner
@@ -261,7 +232,7 @@ mod tests {
     }
 
     #[test]
-    fn faces_in_band_names_each_touched_face() {
+    fn a_band_node_on_one_face_reaches_the_block_across_it() {
         for (l, face) in [
             (IVec3::new(0, 3, 3), 0),
             (IVec3::new(7, 3, 3), 1),
@@ -272,10 +243,19 @@ mod tests {
         ] {
             let mut values = [1.0f32; BLOCK_NODES];
             values[node_offset(l.x, l.y, l.z)] = 0.2;
-            assert_eq!(faces_in_band(&values), 1 << face, "{l}");
+            let across = [
+                -IVec3::X,
+                IVec3::X,
+                -IVec3::Y,
+                IVec3::Y,
+                -IVec3::Z,
+                IVec3::Z,
+            ][face];
+            let n = AROUND.iter().position(|&s| s == across).unwrap();
+            assert_eq!(blocks_reached(&values), 1 << n, "{l}");
         }
         let mut values = [-1.0f32; BLOCK_NODES];
         values[node_offset(3, 4, 5)] = 0.0;
-        assert_eq!(faces_in_band(&values), 0);
+        assert_eq!(blocks_reached(&values), 0);
     }
 }
