@@ -223,18 +223,22 @@ void FloatGrid::copy_leaves(rust::Slice<int32_t> origins, rust::Slice<float> val
       masks.size() != kMaskWords * n) {
     throw openvdb::ValueError("copy_leaves: buffer sizes do not match the leaf count");
   }
-  size_t i = 0;
-  for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf, ++i) {
-    const Coord o = leaf->origin();
-    origins[3 * i + 0] = o.x();
-    origins[3 * i + 1] = o.y();
-    origins[3 * i + 2] = o.z();
-    std::memcpy(values.data() + kLeafVoxels * i, leaf->buffer().data(),
-                kLeafVoxels * sizeof(float));
-    const auto &mask = leaf->getValueMask();
-    for (size_t w = 0; w < kMaskWords; ++w)
-      masks[kMaskWords * i + w] = mask.template getWord<uint64_t>(w);
-  }
+  // LeafManager's order is the tree's leaf iteration order, and its position is the index.
+  openvdb::tree::LeafManager<const FloatTree> leaves(tree);
+  tbb::parallel_for(leaves.leafRange(), [&](const auto &range) {
+    for (auto leaf = range.begin(); leaf; ++leaf) {
+      const size_t i = leaf.pos();
+      const Coord o = leaf->origin();
+      origins[3 * i + 0] = o.x();
+      origins[3 * i + 1] = o.y();
+      origins[3 * i + 2] = o.z();
+      std::memcpy(values.data() + kLeafVoxels * i, leaf->buffer().data(),
+                  kLeafVoxels * sizeof(float));
+      const auto &mask = leaf->getValueMask();
+      for (size_t w = 0; w < kMaskWords; ++w)
+        masks[kMaskWords * i + w] = mask.template getWord<uint64_t>(w);
+    }
+  });
 }
 
 rust::Vec<Tile> FloatGrid::tiles() const {

@@ -8,6 +8,7 @@
 
 mod halo;
 mod import;
+pub(crate) use import::{neighbour_steps, TileSides};
 pub mod tube;
 
 use glam::IVec3;
@@ -44,6 +45,65 @@ pub(crate) const AROUND: [IVec3; 27] = {
     }
     steps
 };
+
+/// Bit n of a 27-bit set of [`AROUND`]'s steps.
+#[inline]
+pub(crate) fn around_bit(step: IVec3) -> u32 {
+    1 << ((step.x + 1) * 9 + (step.y + 1) * 3 + step.z + 1)
+}
+
+/// Bits of a run of values along z for which `pick` holds: bit k for value k.
+#[inline]
+pub(crate) fn row_bits<P: Potential>(values: &[P], pick: impl Fn(f32) -> bool) -> u16 {
+    values
+        .iter()
+        .enumerate()
+        .fold(0, |bits, (k, v)| bits | u16::from(pick(v.to_f32())) << k)
+}
+
+/// The blocks around a block ([`around_bit`]s, its own left out) across the faces, edges
+/// and corners on which a node whose value `pick`s lies.
+pub(crate) fn sides_where<P: Potential>(
+    values: &[P; BLOCK_NODES],
+    pick: impl Fn(f32) -> bool + Copy,
+) -> u32 {
+    sides_of_rows(|x, y| {
+        let start = node_offset(x, y, 0);
+        row_bits(&values[start..start + BLOCK_DIM as usize], pick)
+    })
+}
+
+/// [`sides_where`] for the nodes of `rows` (bit z of row (x, y) for node (x, y, z)).
+pub(crate) fn sides_of_rows(rows: impl Fn(i32, i32) -> u16) -> u32 {
+    const LOW: u16 = 1;
+    const HIGH: u16 = 1 << (BLOCK_DIM - 1);
+    let side = |c: i32| match c {
+        0 => -1,
+        c if c == BLOCK_DIM - 1 => 1,
+        _ => 0,
+    };
+    let mut sides = 0u32;
+    for x in 0..BLOCK_DIM {
+        for y in 0..BLOCK_DIM {
+            let row = rows(x, y);
+            if row == 0 {
+                continue;
+            }
+            // Every node of the row is on the x and y sides of (x, y); its ends also on z's.
+            let zs = [(true, 0), (row & LOW != 0, -1), (row & HIGH != 0, 1)];
+            for sx in [0, side(x)] {
+                for sy in [0, side(y)] {
+                    for (on, sz) in zs {
+                        if on {
+                            sides |= around_bit(IVec3::new(sx, sy, sz));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    sides & !around_bit(IVec3::ZERO)
+}
 
 /// The block holding global node `ijk`.
 #[inline]
@@ -235,6 +295,12 @@ impl<P: Potential> SparseGrid<P> {
         self.blocks.push(Block::filled(coord, value));
         self.index.insert(coord, id);
         id
+    }
+
+    /// Room for `more` blocks, to [`SparseGrid::touch`] many at once without regrowing.
+    pub(crate) fn reserve_blocks(&mut self, more: usize) {
+        self.blocks.reserve_exact(more);
+        self.index.reserve(more);
     }
 
     /// Marks an unstored block as wholly inside (`true`) or outside.

@@ -166,14 +166,13 @@ impl Mesh {
                 self.positions.len(),
                 self.triangles.len()
             )?;
-            let mut buffer = Vec::new();
-            write_records(w, &mut buffer, &self.positions, 24, |i, p, out| {
+            write_records(w, &self.positions, 24, |i, p, out| {
                 let n = self.normals[i];
                 for (k, v) in [p.x, p.y, p.z, n.x, n.y, n.z].into_iter().enumerate() {
                     out[4 * k..4 * k + 4].copy_from_slice(&v.to_le_bytes());
                 }
             })?;
-            write_records(w, &mut buffer, &self.triangles, 13, |_, t, out| {
+            write_records(w, &self.triangles, 13, |_, t, out| {
                 out[0] = 3;
                 for (k, &i) in t.iter().enumerate() {
                     out[1 + 4 * k..5 + 4 * k].copy_from_slice(&(i as i32).to_le_bytes());
@@ -247,7 +246,7 @@ impl Mesh {
     fn write_with(
         &self,
         path: &Path,
-        body: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+        body: impl FnOnce(&mut (dyn Write + Send)) -> std::io::Result<()>,
     ) -> Result<(), MeshError> {
         crate::io::write_atomically(path, |tmp| {
             let file = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
@@ -267,23 +266,33 @@ impl Mesh {
 /// Writes `items` as fixed-size binary records of `size` bytes, each laid out by `record`
 /// (index, item, its bytes), a chunk at a time in parallel into the reused `buffer`.
 fn write_records<T: Sync>(
-    w: &mut dyn Write,
-    buffer: &mut Vec<u8>,
+    w: &mut (dyn Write + Send),
     items: &[T],
     size: usize,
     record: impl Fn(usize, &T, &mut [u8]) + Sync,
 ) -> std::io::Result<()> {
     const CHUNK: usize = 1 << 16;
-    for (c, chunk) in items.chunks(CHUNK).enumerate() {
+    let encode = |c: usize, chunk: &[T], buffer: &mut Vec<u8>| {
         buffer.resize(chunk.len() * size, 0);
         buffer
             .par_chunks_mut(size)
             .zip(chunk)
             .enumerate()
             .for_each(|(i, (out, item))| record(c * CHUNK + i, item, out));
-        w.write_all(buffer)?;
+    };
+    // One chunk is written while the next is laid out.
+    let mut chunks = items.chunks(CHUNK).enumerate();
+    let (mut ready, mut next) = (Vec::new(), Vec::new());
+    let Some((c, chunk)) = chunks.next() else {
+        return Ok(());
+    };
+    encode(c, chunk, &mut ready);
+    for (c, chunk) in chunks {
+        let (written, ()) = rayon::join(|| w.write_all(&ready), || encode(c, chunk, &mut next));
+        written?;
+        std::mem::swap(&mut ready, &mut next);
     }
-    Ok(())
+    w.write_all(&ready)
 }
 
 #[cfg(test)]

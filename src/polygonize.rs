@@ -12,8 +12,8 @@ use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::grid::{
-    node_offset, offset_coords, Block, BlockId, Halo, Potential, SparseGrid, AROUND, BLOCK_DIM,
-    HALO_DIM,
+    around_bit, neighbour_steps, node_offset, row_bits, sides_of_rows, Block, BlockId, Halo,
+    Potential, SparseGrid, TileSides, AROUND, BLOCK_DIM, HALO_DIM,
 };
 use crate::mesh::Mesh;
 use crate::volume::GridData;
@@ -38,6 +38,8 @@ pub struct Polygonizer {
     work: Vec<BlockWork>,
     /// Each block's sides, kept from pass 1 for pass 2's cubes.
     sides: Vec<InsideRows>,
+    /// The crossings' exact points are left out (a mesh without a solver reading them).
+    mesh_only: bool,
 }
 
 /// Index space → world space.
@@ -83,6 +85,7 @@ impl Polygonizer {
             .resize_with(grid.block_count(), InsideRows::default);
 
         // Pass 1: the crossed edges owned by each block (lower node inside the block).
+        let mesh_only = self.mesh_only;
         for_each_block(
             self.work
                 .par_iter_mut()
@@ -117,7 +120,9 @@ impl Polygonizer {
                             let at = |t: f32| xf.apply(base.as_vec3() + l.as_vec3() + along * t);
                             let g = gradient(halo, l).lerp(gradient(halo, m), t);
                             table.mark(offset, axis);
-                            work.points.push(at(t));
+                            if !mesh_only {
+                                work.points.push(at(t));
+                            }
                             work.positions
                                 .push(at(t.clamp(VERTEX_MARGIN, 1.0 - VERTEX_MARGIN)));
                             work.normals.push(g.normalize_or_zero());
@@ -318,23 +323,43 @@ fn cube_triangles(
 }
 
 /// Meshes a grid copied from VDB, `value` mapping its values into [-1, 1] with the surface
-/// at 0 and negative inside; in index space, then carried by the grid's full transform.
-pub fn mesh_vdb(data: &GridData, value: impl Fn(f32) -> f32 + Sync) -> Mesh {
-    let mut grid: SparseGrid<f32> = SparseGrid::from_vdb(data, value);
+/// at 0 and negative inside: cut in world space when the voxels are the world's axes
+/// scaled, else in index space and then carried by the grid's full transform.
+pub fn mesh_vdb(data: GridData, value: impl Fn(f32) -> f32 + Sync) -> Mesh {
+    let mut grid = SparseGrid::<f32>::new();
+    let sides = grid.import_with_sides(&data, value);
+    // Its copy in the grid is all that is read from here on.
+    let xf = data.transform;
+    drop(data);
     // Not a skin's tube: the grid's values may jump from deep inside to its background
     // (liquid filling a dense grid to its walls, as Mantaflow's `phi`), so every node of
     // every block is visited, and the blocks beyond such jumps are stored.
-    store_blocks_across_crossings(&mut grid);
+    store_blocks_across_crossings(&mut grid, &sides);
     grid.blocks_mut()
         .iter_mut()
         .for_each(|b| b.active = [u64::MAX; 8]);
+    let mut polygonizer = Polygonizer {
+        mesh_only: true,
+        ..Polygonizer::default()
+    };
+    let mut mesh = Mesh::default();
+    if let Some((dx, origin)) = xf
+        .scale_translate()
+        .filter(|_| std::env::var("NOFAST").is_err())
+    {
+        // Voxels along the axes: vertices land in world space as the cubes are cut.
+        let index = IndexToWorld {
+            origin: Vec3::from(origin.map(|c| c as f32)),
+            dx: dx as f32,
+        };
+        polygonizer.run(&grid, index, &mut mesh, &mut Crossings::default());
+        return mesh;
+    }
     let index = IndexToWorld {
         origin: Vec3::ZERO,
         dx: 1.0,
     };
-    let mut mesh = Mesh::default();
-    Polygonizer::default().run(&grid, index, &mut mesh, &mut Crossings::default());
-    let xf = &data.transform;
+    polygonizer.run(&grid, index, &mut mesh, &mut Crossings::default());
     let to_world =
         |p: Vec3| Vec3::from(xf.index_to_world(p.as_dvec3().to_array()).map(|c| c as f32));
     let origin = to_world(Vec3::ZERO);
@@ -352,55 +377,86 @@ pub fn mesh_vdb(data: &GridData, value: impl Fn(f32) -> f32 + Sync) -> Mesh {
     mesh
 }
 
-/// Stores every unstored block across a face, edge or corner from nodes of the other side
-/// (an outside tile next to inside nodes, as beyond a dense grid's walls; an inside tile
-/// next to outside nodes), so that every crossed cube lies in stored blocks.
-fn store_blocks_across_crossings(grid: &mut SparseGrid<f32>) {
-    // Per side (inside, outside), per axis, per face (low, high): a node there.
-    let faces = |block: &Block<f32>| {
-        let mut faces = [[[false; 2]; 3]; 2];
-        for (o, v) in block.values.iter().enumerate() {
-            let l = offset_coords(o);
-            let side = &mut faces[usize::from(!inside(*v))];
-            for axis in 0..3 {
-                side[axis][0] |= l[axis] == 0;
-                side[axis][1] |= l[axis] == BLOCK_DIM - 1;
-            }
-        }
-        faces
-    };
+/// Stores the unstored blocks a crossed cube starts in, so that the polygonizer visits
+/// every crossed cube, and marks inside the unstored blocks their halos read:
+/// - each unstored block across a face, edge or corner from nodes of the other side (an
+///   outside tile next to inside nodes, as beyond a dense grid's walls; an inside tile next
+///   to outside nodes);
+/// - tiles of both sides that touch with no leaf between (pruned values of both signs, as
+///   in Mantaflow's `phi`), both of them.
+fn store_blocks_across_crossings(grid: &mut SparseGrid<f32>, sides: &TileSides) {
     let stored = &*grid;
-    let wanted: Vec<IVec3> = stored
+    let mut wanted: Vec<IVec3> = stored
         .blocks()
         .par_iter()
         .flat_map_iter(|block| {
-            let faces = faces(block);
+            // The blocks across the faces, edges and corners where inside / outside nodes lie.
+            let rows: [u16; 64] = std::array::from_fn(|i| {
+                let start = i * BLOCK_DIM as usize;
+                row_bits(&block.values[start..start + BLOCK_DIM as usize], inside)
+            });
+            let row = |x: i32, y: i32| rows[(x * BLOCK_DIM + y) as usize];
+            let nodes = [sides_of_rows(row), sides_of_rows(|x, y| !row(x, y) & 0xFF)];
             let coord = block.coord;
-            AROUND
-                .into_iter()
-                .filter(|d| *d != IVec3::ZERO)
-                .filter_map(move |d| {
-                    let c = coord + d;
-                    if stored.find(c).is_some() {
-                        return None;
-                    }
-                    // Nodes of the other side than the tile's, on every face toward it.
-                    let other = &faces[usize::from(stored.inside_tiles().contains(&c))];
-                    (0..3)
-                        .filter(|&a| d[a] != 0)
-                        .all(|a| other[a][usize::from(d[a] > 0)])
-                        .then_some(c)
-                })
+            AROUND.into_iter().filter_map(move |d| {
+                let c = coord + d;
+                // Nodes of the other side than the tile's, where the tile touches the block
+                // (a leaf's neighbours are marked inside when they are).
+                let other = nodes[usize::from(stored.inside_tiles().contains(&c))];
+                (other & around_bit(d) != 0 && stored.find(c).is_none()).then_some(c)
+            })
         })
         .collect();
-    for coord in wanted {
-        grid.touch(coord);
+    let tiles: Vec<(IVec3, bool)> = stored
+        .inside_tiles()
+        .iter()
+        .map(|&c| (c, true))
+        .chain(sides.tile_blocks())
+        .collect();
+    wanted.par_extend(tiles.par_iter().flat_map_iter(|&(tile, inside)| {
+        let opposite = move |c: &IVec3| {
+            if stored.inside_tiles().contains(c) {
+                return !inside;
+            }
+            stored.find(*c).is_none() && sides.unmarked_inside(*c) != inside
+        };
+        let mut across = neighbour_steps()
+            .map(move |d| tile + d)
+            .filter(opposite)
+            .peekable();
+        let touching = across.peek().is_some();
+        std::iter::once(tile)
+            .filter(move |_| touching)
+            .chain(across)
+    }));
+    wanted.sort_unstable_by_key(|c| c.to_array());
+    wanted.dedup();
+    let unmarked_inside = |grid: &SparseGrid<f32>, c: IVec3| {
+        grid.find(c).is_none() && !grid.inside_tiles().contains(&c) && sides.unmarked_inside(c)
+    };
+    // Stored filled with their side; then their halos read their neighbours' sides.
+    for &c in &wanted {
+        if unmarked_inside(grid, c) {
+            grid.set_tile(c, true);
+        }
+    }
+    grid.reserve_blocks(wanted.len());
+    for &c in &wanted {
+        grid.touch(c);
+    }
+    for &c in &wanted {
+        for n in neighbour_steps().map(|d| c + d) {
+            if unmarked_inside(grid, n) {
+                grid.set_tile(n, true);
+            }
+        }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::grid::offset_coords;
     use crate::grid::{Fixed16, BLOCK_NODES};
     use hashbrown::HashMap;
 
@@ -526,5 +582,150 @@ mod tests {
     #[test]
     fn rough_fixed16_potentials_mesh_the_same_block_by_block_and_in_one_dense_pass() {
         block_by_block_matches_dense::<Fixed16>();
+    }
+
+    #[test]
+    fn blocks_are_stored_across_the_faces_edges_and_corners_where_the_other_side_lies() {
+        let stored = |inside_nodes: &[IVec3]| {
+            let mut grid = SparseGrid::<f32>::new();
+            grid.touch(IVec3::ZERO);
+            for l in inside_nodes {
+                grid.blocks_mut()[0].values[node_offset(l.x, l.y, l.z)] = -0.5;
+            }
+            store_blocks_across_crossings(&mut grid, &TileSides::default());
+            let mut coords: Vec<IVec3> = grid.blocks().iter().map(|b| b.coord).collect();
+            coords.sort_by_key(|c| c.to_array());
+            coords
+        };
+        // Inside nodes on the +x and +y faces, not on their edge: no block across the edge.
+        let faces = stored(&[IVec3::new(7, 3, 3), IVec3::new(3, 7, 3)]);
+        assert_eq!(faces, vec![IVec3::ZERO, IVec3::Y, IVec3::X]);
+        // One on the edge reaches the block across it too.
+        let edge = stored(&[IVec3::new(7, 7, 3)]);
+        assert_eq!(
+            edge,
+            vec![IVec3::ZERO, IVec3::Y, IVec3::X, IVec3::new(1, 1, 0)]
+        );
+        // Every cube a crossing cuts lies in stored blocks: the mesh is closed.
+        let mut grid = SparseGrid::<f32>::new();
+        grid.touch(IVec3::ZERO);
+        grid.blocks_mut()[0].values[node_offset(7, 7, 7)] = -0.5;
+        store_blocks_across_crossings(&mut grid, &TileSides::default());
+        assert_eq!(grid.block_count(), 8);
+        grid.blocks_mut()
+            .iter_mut()
+            .for_each(|b| b.active = [u64::MAX; 8]);
+        let mut mesh = Mesh::default();
+        let xf = IndexToWorld {
+            origin: Vec3::ZERO,
+            dx: 1.0,
+        };
+        Polygonizer::default().run(&grid, xf, &mut mesh, &mut Crossings::default());
+        assert_eq!(mesh.triangles.len(), 8);
+        assert!(mesh.check().is_clean());
+    }
+
+    #[test]
+    fn a_vdb_sphere_meshes_outward_in_world_space_under_any_transform() {
+        use crate::target::{sample, Sphere};
+        let dx = 0.05;
+        let sphere = Sphere {
+            center: Vec3::new(0.1, -0.2, 0.3),
+            radius: 0.5,
+        };
+        let base = sample::level_set(&sphere, dx, 3.0);
+        let (c, s) = (0.6f64, 0.8f64);
+        let d = 0.02f64; // another voxel size, so that the index space must be mapped
+        #[rustfmt::skip]
+        let transforms: [[f64; 16]; 4] = [
+            [d, 0.0, 0.0, 0.0,  0.0, d, 0.0, 0.0,  0.0, 0.0, d, 0.0,  1.0, 2.0, -3.0, 1.0],
+            [d * c, d * s, 0.0, 0.0,  -d * s, d * c, 0.0, 0.0,  0.0, 0.0, d, 0.0,  1.0, 2.0, -3.0, 1.0],
+            [-d, 0.0, 0.0, 0.0,  0.0, d, 0.0, 0.0,  0.0, 0.0, d, 0.0,  1.0, 2.0, -3.0, 1.0],
+            [-d, 0.0, 0.0, 0.0,  0.0, -d, 0.0, 0.0,  0.0, 0.0, -d, 0.0,  1.0, 2.0, -3.0, 1.0],
+        ];
+        for matrix in transforms {
+            let mut data = base.clone();
+            data.transform.matrix = matrix;
+            // The sphere's centre and radius in the new world.
+            let index = (sphere.center / dx).as_dvec3().to_array();
+            let centre = Vec3::from(data.transform.index_to_world(index).map(|v| v as f32));
+            let radius = sphere.radius / dx * d as f32;
+            let mesh = mesh_vdb(data, |v| v / (3.0 * dx));
+            assert!(mesh.check().is_clean(), "{matrix:?}");
+            let (area, volume) = mesh.area_and_volume();
+            let exact = 4.0 / 3.0 * std::f64::consts::PI * f64::from(radius).powi(3);
+            assert!(
+                (volume / exact - 1.0).abs() < 0.01,
+                "{matrix:?}: {volume} for {exact}"
+            );
+            assert!(area > 0.0);
+            let worst = mesh
+                .positions
+                .iter()
+                .map(|p| ((*p - centre).length() - radius).abs())
+                .fold(0.0, f32::max);
+            assert!(worst < 0.05 * d as f32, "{matrix:?}: {worst}");
+            // Normals point away from the centre.
+            let inward = mesh
+                .positions
+                .iter()
+                .zip(&mesh.normals)
+                .filter(|(p, n)| (**p - centre).dot(**n) <= 0.0)
+                .count();
+            assert_eq!(inward, 0, "{matrix:?}");
+        }
+    }
+
+    /// Tiles alone, no leaf: pruned uniform values of both signs that meet (Mantaflow's
+    /// `phi` holds such), meshed closed midway between their nodes.
+    #[test]
+    fn tiles_of_both_sides_meeting_with_no_leaf_between_are_meshed_closed() {
+        use crate::mesh::MeshCheck;
+        use crate::volume::{GridClass, Tile, Transform};
+        let tiles = |background: f32, tiles: &[([i32; 3], u32, f32)]| {
+            let mut data = GridData::empty(
+                "phi",
+                GridClass::LevelSet,
+                background,
+                Transform::uniform(1.0, [0.0; 3]),
+            );
+            for &(origin, dim, value) in tiles {
+                data.tiles.push(Tile {
+                    origin,
+                    dim,
+                    value,
+                    active: true,
+                });
+            }
+            let mesh = mesh_vdb(data, |v| v);
+            let check = mesh.check();
+            // A cavity alone is wound inward, as it should be.
+            let closed = MeshCheck {
+                inward: false,
+                ..check
+            };
+            assert!(closed.is_clean(), "{tiles:?}: {check}");
+            assert_eq!(check.inward, background < 0.0);
+            assert_eq!(
+                (mesh.components(), mesh.euler_characteristic()),
+                (1, 2),
+                "{tiles:?}"
+            );
+            mesh.area_and_volume().1
+        };
+        // One inside block in an outside world: a cube of 8 voxels, its edges chamfered.
+        let cube = tiles(1.0, &[([8, 16, -8], 8, -1.0)]);
+        assert!(cube > 0.9 * 512.0 && cube <= 512.0, "{cube}");
+        // Beside an outside tile, across an edge only, the same.
+        assert_eq!(
+            tiles(1.0, &[([8, 16, -8], 8, -1.0), ([16, 24, -8], 8, 1.0)]),
+            cube
+        );
+        // An inside tile of 128³ alone, met across its faces.
+        let big = tiles(1.0, &[([128, 0, -128], 128, -1.0)]);
+        let side = 128.0f64;
+        assert!(big > 0.95 * side.powi(3) && big <= side.powi(3), "{big}");
+        // An outside block in an inside world: a cavity, wound inward.
+        assert_eq!(tiles(-1.0, &[([8, 16, -8], 8, 1.0)]), -cube);
     }
 }

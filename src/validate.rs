@@ -61,7 +61,7 @@ impl Report {
 pub fn our_mesh(grid: &Grid) -> Result<Mesh, VdbError> {
     let data = grid.to_data()?;
     let scale = data.background.abs().max(f32::MIN_POSITIVE);
-    Ok(mesh_vdb(&data, |phi| phi / scale))
+    Ok(mesh_vdb(data, |phi| phi / scale))
 }
 
 /// OpenVDB's volumeToMesh at iso 0, quads split into triangles.

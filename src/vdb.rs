@@ -21,6 +21,7 @@
 mod ffi;
 mod layout;
 
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
 use cxx::UniquePtr;
@@ -172,7 +173,9 @@ impl Grid {
         out.leaf_origins.clear();
         out.leaf_origins.resize(n, [0; 3]);
         out.leaf_values.clear();
-        out.leaf_values.resize(n * LEAF_VOXELS, 0.0);
+        // Zeroed on all threads: a first read's pages are faulted in here.
+        out.leaf_values
+            .par_extend(rayon::iter::repeat_n(0.0, n * LEAF_VOXELS));
         out.leaf_masks.clear();
         out.leaf_masks.resize(n, [0; MASK_WORDS]);
         self.inner

@@ -55,6 +55,15 @@ impl Transform {
         (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt()
     }
 
+    /// `(voxel size, origin)` when index space maps to world space by a positive uniform
+    /// scale and a translation alone (no rotation, shear or mirror).
+    pub fn scale_translate(&self) -> Option<(f64, [f64; 3])> {
+        let m = &self.matrix;
+        let d = m[0];
+        let linear = (0..3).all(|r| (0..4).all(|c| m[4 * r + c] == if r == c { d } else { 0.0 }));
+        (d > 0.0 && linear && m[15] == 1.0).then_some((d, [m[12], m[13], m[14]]))
+    }
+
     pub fn index_to_world(&self, ijk: [f64; 3]) -> [f64; 3] {
         let m = &self.matrix;
         std::array::from_fn(|c| ijk[0] * m[c] + ijk[1] * m[4 + c] + ijk[2] * m[8 + c] + m[12 + c])
@@ -164,4 +173,31 @@ pub struct VectorTile {
     pub origin: [i32; 3],
     pub dim: u32,
     pub value: [f32; 3],
+}
+
+#[cfg(test)]
+mod scale_translate_tests {
+    use super::Transform;
+
+    #[test]
+    fn only_axis_aligned_positive_uniform_voxels_are_a_scale_and_translation() {
+        let xf = Transform::uniform(0.25, [1.0, -2.0, 3.0]);
+        assert_eq!(xf.scale_translate(), Some((0.25, [1.0, -2.0, 3.0])));
+        let (c, s) = (0.6, 0.8);
+        let mut rotated = xf;
+        rotated.matrix[..2].copy_from_slice(&[0.25 * c, 0.25 * s]);
+        rotated.matrix[4..6].copy_from_slice(&[-0.25 * s, 0.25 * c]);
+        assert_eq!(rotated.scale_translate(), None);
+        let mut mirrored = xf;
+        mirrored.matrix[0] = -0.25;
+        assert_eq!(mirrored.scale_translate(), None);
+        let mut stretched = xf;
+        stretched.matrix[10] = 0.5;
+        assert_eq!(stretched.scale_translate(), None);
+        let mut flipped = xf;
+        for i in [0, 5, 10] {
+            flipped.matrix[i] = -0.25;
+        }
+        assert_eq!(flipped.scale_translate(), None);
+    }
 }

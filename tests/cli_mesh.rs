@@ -125,3 +125,28 @@ fn fog_volumes_need_iso() {
     let exact = 4.0 * std::f64::consts::PI;
     assert!((area - exact).abs() / exact < 0.02, "{area}");
 }
+
+/// Printing into a closed pipe (`activeskin mesh … | head -0`) ends the process quietly,
+/// as C tools do, with no panic; the mesh is written all the same.
+#[test]
+fn a_closed_pipe_on_stdout_is_no_panic() {
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::{Command, Stdio};
+    let dir = common::scratch();
+    let grid = Grid::level_set_sphere(1.0, [0.0; 3], 0.05, 3.0).unwrap();
+    let input = dir.path().join("sphere.vdb");
+    write(&grid, &input);
+    let output = dir.path().join("sphere.ply");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_activeskin"))
+        .args(["mesh", input.to_str().unwrap(), output.to_str().unwrap()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take()); // the reader is gone before the one line is printed
+    let result = child.wait_with_output().unwrap();
+    let stderr = common::stderr(&result);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(result.status.signal(), Some(libc::SIGPIPE), "{stderr}");
+    read_ply(&output);
+}

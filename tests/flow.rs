@@ -106,7 +106,7 @@ fn follow(motion: Rigid, radius: f32, frames: usize, alpha: f32, with_flow: bool
             sum += mean;
             n += 1;
             worst = worst.max(mean);
-            let fresh = mesh_vdb(&sample::level_set(&target, DX, 3.0), |v| v / (3.0 * DX));
+            let fresh = mesh_vdb(sample::level_set(&target, DX, 3.0), |v| v / (3.0 * DX));
             meshing += error(&fresh, &clean_at(frame)).0;
         }
     }

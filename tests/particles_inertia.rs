@@ -108,7 +108,7 @@ fn a_falling_drop_trails_its_particle() {
 
     // Per-frame surfacing of the same density: the sphere around the particle.
     let target = Density::new(vec![particle], h, iso);
-    let fresh = mesh_vdb(&sample::level_set(&target, DX, 3.0), |v| v);
+    let fresh = mesh_vdb(sample::level_set(&target, DX, 3.0), |v| v);
     let fresh_lag = centroid(&fresh) - particle;
     let (fresh_far, fresh_near) = radii(&fresh, particle);
     let expected = follower_lag(&substeps);

@@ -59,9 +59,11 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
         .max(data.tiles.iter().map(|t| &t.value).fold(0.0, farthest))
         .max(farthest(0.0, &data.background))
         .max(f32::MIN_POSITIVE);
-    let mesh = mesh_vdb(&data, |v| sign * (v - iso) / range);
-    mesh.write(&args.output)?;
-    let (area, volume) = mesh.area_and_volume();
+    let mesh = mesh_vdb(data, |v| sign * (v - iso) / range);
+    // The measures while the file is written and synced.
+    let (written, (area, volume)) =
+        rayon::join(|| mesh.write(&args.output), || mesh.area_and_volume());
+    written?;
     let mut line = format!(
         "{}: {} vertices, {} triangles, area {area:.6}, volume {volume:.6}",
         args.output.display(),

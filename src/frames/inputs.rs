@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use super::FrameError;
 use crate::flow::scale::{self, ScaleFit};
@@ -220,7 +221,7 @@ pub fn check_usable(path: &Path, data: &GridData) -> Result<(), FrameError> {
         )));
     }
     let finite = data.background.is_finite()
-        && data.leaf_values.iter().all(|v| v.is_finite())
+        && data.leaf_values.par_iter().all(|v| v.is_finite())
         && data.tiles.iter().all(|t| t.value.is_finite());
     if !finite {
         return Err(FrameError::Data(format!(

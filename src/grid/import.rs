@@ -1,7 +1,7 @@
 //! A grid copied from VDB, leaf for block: the values scaled into the potential's [-1, 1].
 
 use glam::IVec3;
-use hashbrown::HashSet;
+use hashbrown::{HashMap, HashSet};
 
 use rayon::prelude::*;
 
@@ -12,7 +12,7 @@ impl<P: Potential> SparseGrid<P> {
     /// One block per leaf, in coordinate order (so that two imports of the same data are
     /// the same grid, block for block), with `f = clamp(value(φ) / scale)`. Inside tiles of
     /// one block are kept; larger inside tiles and a negative background are kept where
-    /// they touch a leaf, which is all a polygonizer or the band upkeep reads.
+    /// they touch a leaf, which is all the band upkeep reads ([`TileSides`] tells the rest).
     pub fn from_vdb(data: &GridData, value: impl Fn(f32) -> f32 + Sync) -> Self {
         let mut grid = SparseGrid::new();
         grid.import(data, value);
@@ -22,6 +22,15 @@ impl<P: Potential> SparseGrid<P> {
     /// [`SparseGrid::from_vdb`] into this grid, keeping its allocations (a skin restores
     /// its state every frame).
     pub fn import(&mut self, data: &GridData, value: impl Fn(f32) -> f32 + Sync) {
+        self.import_with_sides(data, value);
+    }
+
+    /// [`SparseGrid::import`], returning the side of every unstored block.
+    pub(crate) fn import_with_sides(
+        &mut self,
+        data: &GridData,
+        value: impl Fn(f32) -> f32 + Sync,
+    ) -> TileSides {
         self.index.clear();
         self.blocks.clear();
         self.inside.clear();
@@ -41,46 +50,171 @@ impl<P: Potential> SparseGrid<P> {
         for (id, block) in grid.blocks.iter().enumerate() {
             grid.index.insert(block.coord, BlockId(id as u32));
         }
-        let leaves: HashSet<IVec3> = grid.index.keys().copied().collect();
+        let mut sides = TileSides {
+            outside: HashSet::new(),
+            larger: Vec::new(),
+            background_inside: value(data.background) < 0.0,
+        };
         for tile in &data.tiles {
-            if value(tile.value) >= 0.0 {
-                continue;
-            }
-            let lo = IVec3::from_array(tile.origin) >> IVec3::splat(3);
+            let inside = value(tile.value) < 0.0;
+            let coord = IVec3::from_array(tile.origin) >> IVec3::splat(3);
             let blocks = (tile.dim as i32 / BLOCK_DIM).max(1);
             if blocks == 1 {
-                grid.set_tile(lo, true);
+                // Inside ones are all kept: a skin's own files hold only these.
+                if inside {
+                    grid.set_tile(coord, true);
+                } else {
+                    sides.outside.insert(coord);
+                }
                 continue;
             }
-            let hi = lo + IVec3::splat(blocks);
-            for &leaf in &leaves {
-                for d in neighbour_steps() {
-                    let c = leaf + d;
-                    if c.cmpge(lo).all() && c.cmplt(hi).all() && !leaves.contains(&c) {
-                        grid.set_tile(c, true);
-                    }
+            let shift = blocks.trailing_zeros() as i32;
+            let at = match sides.larger.iter().position(|(s, _)| *s == shift) {
+                Some(at) => at,
+                None => {
+                    sides.larger.push((shift, HashMap::new()));
+                    sides.larger.len() - 1
                 }
-            }
+            };
+            sides.larger[at]
+                .1
+                .insert(coord >> IVec3::splat(shift), inside);
         }
-        if value(data.background) < 0.0 {
-            // Everything not stored is inside: mark the ring around the leaves.
-            let tiles: HashSet<IVec3> = data
-                .tiles
-                .iter()
-                .map(|t| IVec3::from_array(t.origin) >> IVec3::splat(3))
+        if !sides.larger.is_empty() || sides.background_inside {
+            // The ring of unmarked blocks around the leaves that are inside.
+            let grid_ref = &*grid;
+            let ring: Vec<IVec3> = grid_ref
+                .blocks
+                .par_iter()
+                .flat_map_iter(|block| neighbour_steps().map(move |d| block.coord + d))
+                .filter(|&c| {
+                    grid_ref.find(c).is_none()
+                        && !grid_ref.inside.contains(&c)
+                        && sides.unmarked_inside(c)
+                })
                 .collect();
-            for &leaf in &leaves {
-                for d in neighbour_steps() {
-                    let c = leaf + d;
-                    if !leaves.contains(&c) && !tiles.contains(&c) {
-                        grid.set_tile(c, true);
-                    }
-                }
+            for c in ring {
+                grid.set_tile(c, true);
             }
         }
+        sides
     }
 }
 
-fn neighbour_steps() -> impl Iterator<Item = IVec3> {
+/// The side of each block a grid copied from VDB leaves unstored, from the tiles and the
+/// background, for the blocks the grid does not mark inside: larger tiles by size, each
+/// size one lookup away (a block's tile is its coordinate shifted).
+#[derive(Default)]
+pub(crate) struct TileSides {
+    /// Outside tiles of one block.
+    outside: HashSet<IVec3>,
+    /// Per size (log₂ of its blocks per side): the tiles by shifted coordinate, inside or not.
+    larger: Vec<(i32, HashMap<IVec3, bool>)>,
+    background_inside: bool,
+}
+
+impl TileSides {
+    /// Whether block `c`, neither stored nor marked inside in the grid, is inside.
+    pub(crate) fn unmarked_inside(&self, c: IVec3) -> bool {
+        if self.outside.contains(&c) {
+            return false;
+        }
+        self.larger
+            .iter()
+            .find_map(|(shift, tiles)| tiles.get(&(c >> IVec3::splat(*shift))))
+            .copied()
+            .unwrap_or(self.background_inside)
+    }
+
+    /// The outside tiles of one block, then the blocks on the faces of every larger tile of
+    /// up to 16³ blocks, with their sides (the faces of root tiles, 512³ blocks, are left
+    /// out: a liquid never fills one).
+    pub(crate) fn tile_blocks(&self) -> impl Iterator<Item = (IVec3, bool)> + '_ {
+        let faces = self
+            .larger
+            .iter()
+            .filter(|(shift, _)| *shift <= 4)
+            .flat_map(|(shift, tiles)| {
+                let n = 1 << shift;
+                tiles.iter().flat_map(move |(&key, &inside)| {
+                    let lo = key << IVec3::splat(*shift);
+                    (0..n).flat_map(move |x| {
+                        (0..n).flat_map(move |y| {
+                            (0..n)
+                                .filter(move |&z| [x, y, z].iter().any(|&c| c == 0 || c == n - 1))
+                                .map(move |z| (lo + IVec3::new(x, y, z), inside))
+                        })
+                    })
+                })
+            });
+        self.outside.iter().map(|&c| (c, false)).chain(faces)
+    }
+}
+
+pub(crate) fn neighbour_steps() -> impl Iterator<Item = IVec3> {
     AROUND.into_iter().filter(|d| *d != IVec3::ZERO)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::volume::{GridClass, Tile, Transform, LEAF_VOXELS, MASK_WORDS};
+
+    /// One leaf at block (15, 8, 8), the last of its 128³ node along x, with a tile of
+    /// 128³ at x = 128 beyond it and a tile of one block at (15, 9, 8).
+    fn leaf_beside_tiles(background: f32, big: f32, small: f32) -> GridData {
+        let mut data = GridData::empty(
+            "g",
+            GridClass::LevelSet,
+            background,
+            Transform::uniform(1.0, [0.0; 3]),
+        );
+        data.leaf_origins.push([120, 64, 64]);
+        data.leaf_values.extend([0.5f32; LEAF_VOXELS]);
+        data.leaf_masks.push([u64::MAX; MASK_WORDS]);
+        for (origin, dim, value) in [([128, 0, 0], 128, big), ([120, 72, 64], 8, small)] {
+            data.tiles.push(Tile {
+                origin,
+                dim,
+                value,
+                active: false,
+            });
+        }
+        data
+    }
+
+    fn inside_ring(grid: &SparseGrid<f32>) -> Vec<IVec3> {
+        let leaf = IVec3::new(15, 8, 8);
+        let mut ring: Vec<IVec3> = neighbour_steps()
+            .map(|d| leaf + d)
+            .filter(|c| grid.inside_tiles().contains(c))
+            .map(|c| c - leaf)
+            .collect();
+        ring.sort_by_key(|c| c.to_array());
+        ring
+    }
+
+    #[test]
+    fn a_larger_inside_tile_is_inside_where_it_touches_a_leaf() {
+        let grid = SparseGrid::<f32>::from_vdb(&leaf_beside_tiles(3.0, -3.0, 3.0), |v| v / 3.0);
+        assert_eq!(grid.block_count(), 1);
+        // The nine blocks across the +x face, edges and corners lie in the large tile.
+        let ring = inside_ring(&grid);
+        assert_eq!(ring.len(), 9, "{ring:?}");
+        assert!(ring.iter().all(|c| c.x == 1));
+        // Beyond the ring only the tile's side matters, not its blocks.
+        assert!(!grid.inside_tiles().contains(&IVec3::new(20, 8, 8)));
+    }
+
+    #[test]
+    fn an_inside_background_is_inside_where_no_tile_says_otherwise() {
+        let grid = SparseGrid::<f32>::from_vdb(&leaf_beside_tiles(-3.0, 3.0, 3.0), |v| v / 3.0);
+        let ring = inside_ring(&grid);
+        // 26 neighbours, less the nine in the outside 128³ tile and the outside block tile.
+        assert_eq!(ring.len(), 16, "{ring:?}");
+        assert!(ring.iter().all(|c| c.x <= 0 && *c != IVec3::new(0, 1, 0)));
+        // A one-block inside tile is kept wherever it lies.
+        let grid = SparseGrid::<f32>::from_vdb(&leaf_beside_tiles(3.0, 3.0, -3.0), |v| v / 3.0);
+        assert_eq!(inside_ring(&grid), vec![IVec3::new(0, 1, 0)]);
+    }
 }

@@ -6,7 +6,7 @@
 use glam::IVec3;
 use rayon::prelude::*;
 
-use super::{node_offset, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES, HALO_DIM};
+use super::{around_bit, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES, HALO_DIM};
 
 #[inline]
 fn in_band(f: f32) -> bool {
@@ -40,13 +40,12 @@ pub fn upkeep_reaching<P: Potential>(grid: &mut SparseGrid<P>, reach: Reach) {
         .par_iter()
         .map(|block| (block.coord, blocks_reached(&block.values)))
         .collect();
-    let bit = |step: IVec3| 1u32 << ((step.x + 1) * 9 + (step.y + 1) * 3 + step.z + 1);
     for (coord, reached) in wake {
         match reach {
             Reach::Faces => {
                 for axis in IVec3::AXES {
                     for step in [-axis, axis] {
-                        if reached & bit(step) != 0 {
+                        if reached & around_bit(step) != 0 {
                             grid.touch(coord + step);
                         }
                     }
@@ -54,7 +53,7 @@ pub fn upkeep_reaching<P: Potential>(grid: &mut SparseGrid<P>, reach: Reach) {
             }
             Reach::Cube => {
                 for step in super::AROUND {
-                    if reached & bit(step) != 0 {
+                    if reached & around_bit(step) != 0 {
                         grid.touch(coord + step);
                     }
                 }
@@ -79,45 +78,14 @@ pub fn upkeep_reaching<P: Potential>(grid: &mut SparseGrid<P>, reach: Reach) {
 /// In-band bits of a run of values along z: bit k for value k.
 #[inline]
 fn band_bits<P: Potential>(values: &[P]) -> u16 {
-    values
-        .iter()
-        .enumerate()
-        .fold(0, |bits, (k, v)| bits | u16::from(in_band(v.to_f32())) << k)
+    super::row_bits(values, in_band)
 }
 
 /// The blocks around a block (bit n for [`super::AROUND`]'s step n, its own left out)
 /// that its band nodes' neighbours reach: across the faces, edges and corners those nodes
 /// lie on (the face steps alone for a tube of face neighbours).
 fn blocks_reached<P: Potential>(values: &[P; BLOCK_NODES]) -> u32 {
-    const LOW: u16 = 1;
-    const HIGH: u16 = 1 << (BLOCK_DIM - 1);
-    let side = |c: i32| match c {
-        0 => -1,
-        c if c == BLOCK_DIM - 1 => 1,
-        _ => 0,
-    };
-    let mut reached = 0u32;
-    for x in 0..BLOCK_DIM {
-        for y in 0..BLOCK_DIM {
-            let start = node_offset(x, y, 0);
-            let row = band_bits(&values[start..start + BLOCK_DIM as usize]);
-            if row == 0 {
-                continue;
-            }
-            // Every node of the row is on the x and y sides of (x, y); its ends also on z's.
-            let zs = [(true, 0), (row & LOW != 0, -1), (row & HIGH != 0, 1)];
-            for sx in [0, side(x)] {
-                for sy in [0, side(y)] {
-                    for (on, sz) in zs {
-                        if on {
-                            reached |= 1 << ((sx + 1) * 9 + (sy + 1) * 3 + sz + 1);
-                        }
-                    }
-                }
-            }
-        }
-    }
-    reached & !(1 << 13)
+    super::sides_where(values, in_band)
 }
 
 /// The active mask of a block: its nodes in the band or with a neighbour in it (across a

@@ -37,7 +37,7 @@ pub fn jittered_ball(radius: f32, jitter: f32, frames: usize, alpha: f32) -> Fli
 
     let per_frame: Vec<Mesh> = clouds
         .iter()
-        .map(|d| mesh_vdb(&d.to_fog_volume(dx), |g| ((iso - g) / iso).clamp(-1.0, 1.0)))
+        .map(|d| mesh_vdb(d.to_fog_volume(dx), |g| ((iso - g) / iso).clamp(-1.0, 1.0)))
         .collect();
     let params = SkinParams {
         dx,
