@@ -14,8 +14,9 @@ mod outputs;
 use std::time::Instant;
 
 pub use inputs::{
-    background_outside, check_usable, read_target, read_target_in, InputFrames, ParticleInput,
-    ScaleEstimate, TargetRead, TargetUnits, VelocityInput, VelocitySource, VELOCITY_NAMES,
+    background_outside, check_transform, check_usable, not_finite, read_target, read_target_in,
+    InputFrames, ParticleInput, ScaleEstimate, TargetRead, TargetUnits, VelocityInput,
+    VelocitySource, VELOCITY_NAMES,
 };
 pub use outputs::{OutputSpec, Outputs, Progress};
 

@@ -249,12 +249,12 @@ impl Mesh {
         body: impl FnOnce(&mut (dyn Write + Send)) -> std::io::Result<()>,
     ) -> Result<(), MeshError> {
         crate::io::write_atomically(path, |tmp| {
-            let file = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
+            let file = crate::io::EagerWriteback::create(tmp).map_err(|e| e.to_string())?;
             let mut w = std::io::BufWriter::new(file);
             body(&mut w)
                 .and_then(|()| w.flush())
                 .map_err(|e| e.to_string())?;
-            w.get_ref().sync_all().map_err(|e| e.to_string())
+            w.get_ref().sync().map_err(|e| e.to_string())
         })
         .map_err(|message| MeshError {
             path: path.into(),
@@ -264,7 +264,7 @@ impl Mesh {
 }
 
 /// Writes `items` as fixed-size binary records of `size` bytes, each laid out by `record`
-/// (index, item, its bytes), a chunk at a time in parallel into the reused `buffer`.
+/// (index, item, its bytes), a chunk at a time in parallel.
 fn write_records<T: Sync>(
     w: &mut (dyn Write + Send),
     items: &[T],

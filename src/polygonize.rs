@@ -100,14 +100,32 @@ impl Polygonizer {
                 let base = block.coord * BLOCK_DIM;
                 *sides = InsideRows::of(halo);
                 let rows = &*sides;
-                for (x, y, active) in active_rows(block) {
+                // Bit z: the edge from node z along x, y, z changes side.
+                let crossed_from = |x: i32, y: i32| {
                     let r = rows.at(x, y);
-                    // Bit z: the edge from node z along x, y, z changes side.
-                    let crossed = [
+                    [
                         (r ^ rows.at(x + 1, y)) >> 1,
                         (r ^ rows.at(x, y + 1)) >> 1,
                         (r ^ (r >> 1)) >> 1,
-                    ];
+                    ]
+                };
+                // Room for them all at once (a first mesh grows no vector edge by edge).
+                let count: u32 = active_rows(block)
+                    .map(|(x, y, active)| {
+                        let crossed = crossed_from(x, y);
+                        crossed
+                            .iter()
+                            .map(|c| (c & active).count_ones())
+                            .sum::<u32>()
+                    })
+                    .sum();
+                work.positions.reserve(count as usize);
+                work.normals.reserve(count as usize);
+                if !mesh_only {
+                    work.points.reserve(count as usize);
+                }
+                for (x, y, active) in active_rows(block) {
+                    let crossed = crossed_from(x, y);
                     for z in bits(active & (crossed[0] | crossed[1] | crossed[2])) {
                         let l = IVec3::new(x, y, z);
                         let offset = node_offset(x, y, z);
@@ -156,6 +174,8 @@ impl Polygonizer {
                 if block.active_count() == 0 {
                     return;
                 }
+                // A closed surface has about two triangles per vertex.
+                work.triangles.reserve(2 * work.positions.len());
                 let local = shared.around(&grid.neighbourhood(block.coord));
                 for (x, y, active) in active_rows(block) {
                     let corners = [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)];
@@ -408,9 +428,9 @@ fn store_blocks_across_crossings(grid: &mut SparseGrid<f32>, sides: &TileSides) 
         })
         .collect();
     let tiles: Vec<(IVec3, bool)> = stored
-        .inside_tiles()
-        .iter()
-        .map(|&c| (c, true))
+        .exposed_inside_tiles()
+        .into_iter()
+        .map(|c| (c, true))
         .chain(sides.tile_blocks())
         .collect();
     wanted.par_extend(tiles.par_iter().flat_map_iter(|&(tile, inside)| {

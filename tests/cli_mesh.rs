@@ -150,3 +150,51 @@ fn a_closed_pipe_on_stdout_is_no_panic() {
     assert_eq!(result.status.signal(), Some(libc::SIGPIPE), "{stderr}");
     read_ply(&output);
 }
+
+/// A value that is not a finite number, anywhere (a voxel, a tile, the background, for a
+/// level set or a fog volume at --iso), is one line and exit 1, with no mesh written.
+#[test]
+fn values_that_are_not_numbers_are_refused() {
+    use activeskin::target::{sample, Sphere};
+    use activeskin::volume::Tile;
+    let sphere = Sphere {
+        center: Vec3::ZERO,
+        radius: 0.5,
+    };
+    let base = sample::level_set(&sphere, 0.05, 3.0);
+    type Damage = fn(&mut activeskin::volume::GridData);
+    let cases: [(&str, Damage); 4] = [
+        ("a NaN voxel", |d| d.leaf_values[100] = f32::NAN),
+        ("an infinite voxel", |d| {
+            d.leaf_values[7] = f32::NEG_INFINITY
+        }),
+        ("an infinite tile", |d| {
+            d.tiles.push(Tile {
+                origin: [800, 800, 800],
+                dim: 8,
+                value: f32::INFINITY,
+                active: true,
+            })
+        }),
+        ("a NaN background", |d| d.background = f32::NAN),
+    ];
+    for (what, damage) in cases {
+        for iso in [None, Some("0.1")] {
+            let dir = common::scratch();
+            let mut data = base.clone();
+            damage(&mut data);
+            let input = dir.path().join("bad.vdb");
+            write(&Grid::from_data(&data).unwrap(), &input);
+            let output = dir.path().join("bad.obj");
+            let mut args = vec!["mesh", input.to_str().unwrap(), output.to_str().unwrap()];
+            args.extend(iso.map(|iso| ["--iso", iso]).into_iter().flatten());
+            let result = activeskin(&args);
+            common::assert_fails(&result, 1, "bad.vdb", what);
+            assert!(
+                common::stderr(&result).contains("NaN or infinite"),
+                "{what}"
+            );
+            assert!(!output.exists(), "{what}");
+        }
+    }
+}

@@ -9,7 +9,7 @@ use activeskin::polygonize::mesh_vdb;
 use activeskin::vdb::Grid;
 use activeskin::volume::GridClass;
 
-use activeskin::frames::{background_outside, check_usable};
+use activeskin::frames::{background_outside, check_transform, not_finite};
 
 #[derive(clap::Args)]
 pub struct MeshArgs {
@@ -32,7 +32,10 @@ pub struct MeshArgs {
 pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
     let path = &args.input;
     let mut data = Grid::read(path, args.grid.as_deref())?.to_data()?;
-    check_usable(path, &data)?;
+    check_transform(path, &data)?;
+    if !data.background.is_finite() {
+        return Err(not_finite(path, &data).into());
+    }
     if data.class == GridClass::LevelSet && args.iso.is_none() {
         // As `skin` reads it: liquid touching a dense domain's walls is closed there.
         if let Some(note) = background_outside(&mut data) {
@@ -50,7 +53,16 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
             data.name
         ),
     };
-    let farthest = |m: f32, &v: &f32| m.max((v - iso).abs());
+    // The range, and whether every value is a number, in one pass: a NaN or an infinity
+    // makes it infinite.
+    let farthest = |m: f32, &v: &f32| {
+        let d = (v - iso).abs();
+        if d.is_nan() {
+            f32::INFINITY
+        } else {
+            m.max(d)
+        }
+    };
     let range = data
         .leaf_values
         .par_iter()
@@ -59,6 +71,9 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
         .max(data.tiles.iter().map(|t| &t.value).fold(0.0, farthest))
         .max(farthest(0.0, &data.background))
         .max(f32::MIN_POSITIVE);
+    if !range.is_finite() {
+        return Err(not_finite(path, &data).into());
+    }
     let mesh = mesh_vdb(data, |v| sign * (v - iso) / range);
     // The measures while the file is written and synced.
     let (written, (area, volume)) =

@@ -213,23 +213,35 @@ pub fn background_outside(data: &mut GridData) -> Option<String> {
 
 /// What any grid we sample or mesh must be: uniform voxels and finite values.
 pub fn check_usable(path: &Path, data: &GridData) -> Result<(), FrameError> {
-    let name = &data.name;
-    if !data.uniform_linear {
-        return Err(FrameError::Data(format!(
-            "{}: grid '{name}' has a non-uniform or non-linear transform; resample it to cubic voxels",
-            path.display()
-        )));
-    }
+    check_transform(path, data)?;
     let finite = data.background.is_finite()
         && data.leaf_values.par_iter().all(|v| v.is_finite())
         && data.tiles.iter().all(|t| t.value.is_finite());
     if !finite {
+        return Err(not_finite(path, data));
+    }
+    Ok(())
+}
+
+/// The transform half of [`check_usable`], for a caller that reads every value anyway.
+pub fn check_transform(path: &Path, data: &GridData) -> Result<(), FrameError> {
+    if !data.uniform_linear {
         return Err(FrameError::Data(format!(
-            "{}: grid '{name}' holds NaN or infinite values",
-            path.display()
+            "{}: grid '{}' has a non-uniform or non-linear transform; resample it to cubic voxels",
+            path.display(),
+            data.name
         )));
     }
     Ok(())
+}
+
+/// The error of a grid holding a value that is not a finite number.
+pub fn not_finite(path: &Path, data: &GridData) -> FrameError {
+    FrameError::Data(format!(
+        "{}: grid '{}' holds NaN or infinite values",
+        path.display(),
+        data.name
+    ))
 }
 
 /// How particle frames become targets (§6.1): the density of particles of `radius` (or

@@ -101,6 +101,46 @@ impl<P: Potential> SparseGrid<P> {
     }
 }
 
+impl<P: Potential> SparseGrid<P> {
+    /// The tiles marked inside with a neighbour (of 26) neither stored nor marked inside;
+    /// the others are told by bits, chunks of 4³ blocks to a word.
+    pub(crate) fn exposed_inside_tiles(&self) -> Vec<IVec3> {
+        let chunk = |c: IVec3| c >> IVec3::splat(2);
+        let bit = |c: IVec3| {
+            let l = c & IVec3::splat(3);
+            1u64 << (l.x * 16 + l.y * 4 + l.z)
+        };
+        let mut occupied: HashMap<IVec3, u64> = HashMap::new();
+        let mut inside: HashMap<IVec3, u64> = HashMap::new();
+        for &c in &self.inside {
+            *occupied.entry(chunk(c)).or_default() |= bit(c);
+            *inside.entry(chunk(c)).or_default() |= bit(c);
+        }
+        for block in &self.blocks {
+            *occupied.entry(chunk(block.coord)).or_default() |= bit(block.coord);
+        }
+        let inside: Vec<(IVec3, u64)> = inside.into_iter().collect();
+        inside
+            .par_iter()
+            .flat_map_iter(|&(key, word)| {
+                let around: [u64; 27] =
+                    AROUND.map(|d| occupied.get(&(key + d)).copied().unwrap_or(0));
+                // Bit of block `c` (within one chunk of this one) in `around`.
+                let occupied_at = move |c: IVec3| {
+                    let d = chunk(c) - key;
+                    around[((d.x + 1) * 9 + (d.y + 1) * 3 + d.z + 1) as usize] & bit(c) != 0
+                };
+                (0..64)
+                    .filter(move |b| word >> b & 1 == 1)
+                    .map(move |b| {
+                        (key << IVec3::splat(2)) + IVec3::new(b >> 4, (b >> 2) & 3, b & 3)
+                    })
+                    .filter(move |&c| !neighbour_steps().all(|d| occupied_at(c + d)))
+            })
+            .collect()
+    }
+}
+
 /// The side of each block a grid copied from VDB leaves unstored, from the tiles and the
 /// background, for the blocks the grid does not mark inside: larger tiles by size, each
 /// size one lookup away (a block's tile is its coordinate shifted).
@@ -216,5 +256,49 @@ mod tests {
         // A one-block inside tile is kept wherever it lies.
         let grid = SparseGrid::<f32>::from_vdb(&leaf_beside_tiles(3.0, 3.0, -3.0), |v| v / 3.0);
         assert_eq!(inside_ring(&grid), vec![IVec3::new(0, 1, 0)]);
+    }
+
+    #[test]
+    fn exposed_inside_tiles_are_those_with_a_neighbour_neither_stored_nor_inside() {
+        let mut state = 7u64;
+        let mut next = move |n: i32| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 33) % n as u64) as i32
+        };
+        for _ in 0..10 {
+            let mut grid = SparseGrid::<f32>::new();
+            // A cube of blocks across chunk and sign boundaries, a few left out.
+            for x in -5..5 {
+                for y in -5..5 {
+                    for z in -5..5 {
+                        let c = IVec3::new(x, y, z);
+                        match next(40) {
+                            0 => {}
+                            1..=9 => {
+                                grid.touch(c);
+                            }
+                            _ => grid.set_tile(c, true),
+                        }
+                    }
+                }
+            }
+            let mut fast = grid.exposed_inside_tiles();
+            fast.sort_by_key(|c| c.to_array());
+            let mut slow: Vec<IVec3> = grid
+                .inside_tiles()
+                .iter()
+                .copied()
+                .filter(|&t| {
+                    neighbour_steps().any(|d| {
+                        grid.find(t + d).is_none() && !grid.inside_tiles().contains(&(t + d))
+                    })
+                })
+                .collect();
+            slow.sort_by_key(|c| c.to_array());
+            assert!(!slow.is_empty() && slow.len() < grid.inside_tiles().len());
+            assert_eq!(fast, slow);
+        }
     }
 }
