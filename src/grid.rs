@@ -185,11 +185,6 @@ impl<P: Potential> Block<P> {
         }
     }
 
-    #[inline]
-    pub(crate) fn is_active(&self, offset: usize) -> bool {
-        self.active[offset >> 6] >> (offset & 63) & 1 == 1
-    }
-
     pub(crate) fn active_count(&self) -> usize {
         self.active.iter().map(|w| w.count_ones() as usize).sum()
     }

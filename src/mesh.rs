@@ -83,8 +83,38 @@ impl Mesh {
             }
         }
         let v = used.iter().filter(|&&u| u).count() as i64;
-        let edges = self.sorted_edges().chunk_by(|a, b| a.0 == b.0).count() as i64;
-        v - edges + self.triangles.len() as i64
+        v - self.edge_count() as i64 + self.triangles.len() as i64
+    }
+
+    /// Undirected edges the triangles use, each once: bucketed by their lower vertex (a
+    /// counting sort, linear), then the few in each bucket deduplicated.
+    fn edge_count(&self) -> usize {
+        let edges = || {
+            self.triangles.iter().flat_map(|t| {
+                (0..3).map(move |i| (t[i].min(t[(i + 1) % 3]), t[i].max(t[(i + 1) % 3])))
+            })
+        };
+        let mut start = vec![0u32; self.positions.len() + 1];
+        for (low, _) in edges() {
+            start[low as usize + 1] += 1;
+        }
+        for i in 1..start.len() {
+            start[i] += start[i - 1];
+        }
+        let mut next = start.clone();
+        let mut high = vec![0u32; 3 * self.triangles.len()];
+        for (low, h) in edges() {
+            high[next[low as usize] as usize] = h;
+            next[low as usize] += 1;
+        }
+        start
+            .windows(2)
+            .map(|w| {
+                let bucket = &mut high[w[0] as usize..w[1] as usize];
+                bucket.sort_unstable();
+                bucket.chunk_by(|a, b| a == b).count()
+            })
+            .sum()
     }
 
     /// Connected components (through shared vertices).
@@ -323,5 +353,41 @@ mod tests {
         let e = Mesh::read_obj(&path).unwrap_err().to_string();
         assert!(e.contains("line 3"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// χ counts each undirected edge once, however many triangles share it and in
+    /// whichever direction.
+    #[test]
+    fn euler_characteristic_counts_each_edge_once() {
+        let mut state = 3u64;
+        let mut next = move |n: u32| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 33) % u64::from(n)) as u32
+        };
+        for _ in 0..20 {
+            let vertices = 40;
+            let triangles: Vec<[u32; 3]> = (0..60)
+                .map(|_| [next(vertices), next(vertices), next(vertices)])
+                .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+                .collect();
+            let mesh = Mesh {
+                positions: vec![Vec3::ZERO; vertices as usize],
+                normals: vec![Vec3::Z; vertices as usize],
+                triangles,
+            };
+            let edges: std::collections::HashSet<(u32, u32)> = mesh
+                .triangles
+                .iter()
+                .flat_map(|t| {
+                    (0..3).map(move |i| (t[i].min(t[(i + 1) % 3]), t[i].max(t[(i + 1) % 3])))
+                })
+                .collect();
+            let used: std::collections::HashSet<u32> =
+                mesh.triangles.iter().flatten().copied().collect();
+            let chi = used.len() as i64 - edges.len() as i64 + mesh.triangles.len() as i64;
+            assert_eq!(mesh.euler_characteristic(), chi);
+        }
     }
 }

@@ -105,26 +105,50 @@ fn sweep_nodes<P: Potential>(
         .for_each_init(Box::<Halo>::default, |halo, (out, block)| {
             halo.gather(grid_ref, block.coord);
             let base = block.coord * BLOCK_DIM;
-            for (offset, out) in out.iter_mut().enumerate() {
+            let visit = |offset: usize| {
                 let l = offset_coords(offset);
-                let f = halo.at(l.x, l.y, l.z);
-                *out = if all || block.is_active(offset) {
-                    update(halo, l, base + l, f)
-                } else {
-                    f
-                };
+                out[offset] = update(halo, l, base + l, halo.at(l.x, l.y, l.z));
+            };
+            if all {
+                (0..BLOCK_NODES).for_each(visit);
+            } else {
+                block.active_offsets().for_each(visit);
             }
         });
+    // Only the nodes visited change (the others keep their values).
     for (block, values) in grid.blocks_mut().iter_mut().zip(scratch.iter()) {
-        for (v, &f) in block.values.iter_mut().zip(values.iter()) {
-            *v = P::from_f32(f);
+        if all {
+            for (v, &f) in block.values.iter_mut().zip(values.iter()) {
+                *v = P::from_f32(f);
+            }
+        } else {
+            let active = block.active;
+            for (w, &word) in active.iter().enumerate() {
+                let mut bits = word;
+                while bits != 0 {
+                    let offset = w * 64 + bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    block.values[offset] = P::from_f32(values[offset]);
+                }
+            }
         }
     }
 }
 
 /// Smallest u with Σ max(u − a_i, 0)² = h² (the upwind Eikonal update).
-fn godunov(mut a: [f32; 3], h: f32) -> f32 {
-    a.sort_unstable_by(f32::total_cmp);
+fn godunov(a: [f32; 3], h: f32) -> f32 {
+    // Three values sorted by three compare-and-swaps (a general sort costs more here).
+    let [mut a0, mut a1, mut a2] = a;
+    if a0 > a1 {
+        std::mem::swap(&mut a0, &mut a1);
+    }
+    if a1 > a2 {
+        std::mem::swap(&mut a1, &mut a2);
+    }
+    if a0 > a1 {
+        std::mem::swap(&mut a0, &mut a1);
+    }
+    let a = [a0, a1, a2];
     let u = a[0] + h;
     if u <= a[1] {
         return u;
