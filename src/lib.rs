@@ -71,3 +71,16 @@ pub enum Error {
     #[error(transparent)]
     Particles(#[from] particles::ParticleError),
 }
+
+/// A repeatable pseudo-random source for tests: `below(n)` in 0..n (a 64-bit LCG's high
+/// bits).
+#[cfg(test)]
+pub(crate) fn test_rng(seed: u64) -> impl FnMut(u64) -> u64 {
+    let mut state = seed;
+    move |n| {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 33) % n
+    }
+}

@@ -359,13 +359,8 @@ mod tests {
     /// whichever direction.
     #[test]
     fn euler_characteristic_counts_each_edge_once() {
-        let mut state = 3u64;
-        let mut next = move |n: u32| {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 33) % u64::from(n)) as u32
-        };
+        let mut rng = crate::test_rng(3);
+        let mut next = move |n: u32| rng(u64::from(n)) as u32;
         for _ in 0..20 {
             let vertices = 40;
             let triangles: Vec<[u32; 3]> = (0..60)

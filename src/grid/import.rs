@@ -260,13 +260,8 @@ mod tests {
 
     #[test]
     fn exposed_inside_tiles_are_those_with_a_neighbour_neither_stored_nor_inside() {
-        let mut state = 7u64;
-        let mut next = move |n: i32| {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 33) % n as u64) as i32
-        };
+        let mut rng = crate::test_rng(7);
+        let mut next = move |n: i32| rng(n as u64) as i32;
         for _ in 0..10 {
             let mut grid = SparseGrid::<f32>::new();
             // A cube of blocks across chunk and sign boundaries, a few left out.
