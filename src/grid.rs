@@ -8,7 +8,7 @@
 
 mod halo;
 mod import;
-pub(crate) use import::{neighbour_steps, TileSides};
+pub(crate) use import::TileSides;
 pub mod tube;
 
 use glam::IVec3;
@@ -105,6 +105,27 @@ pub(crate) fn sides_of_rows(rows: impl Fn(i32, i32) -> u16) -> u32 {
     sides & !around_bit(IVec3::ZERO)
 }
 
+/// The node offsets set in an active mask (a copy: the block's values may be written
+/// while they are visited).
+pub(crate) fn mask_offsets(mask: [u64; 8]) -> impl Iterator<Item = usize> {
+    mask.into_iter().enumerate().flat_map(|(w, word)| {
+        let mut bits = word;
+        std::iter::from_fn(move || {
+            if bits == 0 {
+                return None;
+            }
+            let b = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            Some(w * 64 + b)
+        })
+    })
+}
+
+/// The 26 steps to a block's neighbours: [`AROUND`] without its own.
+pub(crate) fn neighbour_steps() -> impl Iterator<Item = IVec3> {
+    AROUND.into_iter().filter(|d| *d != IVec3::ZERO)
+}
+
 /// The block holding global node `ijk`.
 #[inline]
 pub(crate) fn block_of(ijk: IVec3) -> IVec3 {
@@ -190,18 +211,8 @@ impl<P: Potential> Block<P> {
     }
 
     /// Offsets of active nodes, in order.
-    pub(crate) fn active_offsets(&self) -> impl Iterator<Item = usize> + '_ {
-        self.active.iter().enumerate().flat_map(|(w, &word)| {
-            let mut bits = word;
-            std::iter::from_fn(move || {
-                if bits == 0 {
-                    return None;
-                }
-                let b = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                Some(w * 64 + b)
-            })
-        })
+    pub(crate) fn active_offsets(&self) -> impl Iterator<Item = usize> {
+        mask_offsets(self.active)
     }
 }
 

@@ -433,22 +433,7 @@ fn store_blocks_across_crossings(grid: &mut SparseGrid<f32>, sides: &TileSides) 
         .map(|c| (c, true))
         .chain(sides.tile_blocks())
         .collect();
-    wanted.par_extend(tiles.par_iter().flat_map_iter(|&(tile, inside)| {
-        let opposite = move |c: &IVec3| {
-            if stored.inside_tiles().contains(c) {
-                return !inside;
-            }
-            stored.find(*c).is_none() && sides.unmarked_inside(*c) != inside
-        };
-        let mut across = neighbour_steps()
-            .map(move |d| tile + d)
-            .filter(opposite)
-            .peekable();
-        let touching = across.peek().is_some();
-        std::iter::once(tile)
-            .filter(move |_| touching)
-            .chain(across)
-    }));
+    wanted.extend(stored.tile_borders(&tiles, |c| sides.unmarked_inside(c)));
     wanted.sort_unstable_by_key(|c| c.to_array());
     wanted.dedup();
     let unmarked_inside = |grid: &SparseGrid<f32>, c: IVec3| {

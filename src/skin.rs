@@ -18,7 +18,9 @@ use rayon::prelude::*;
 
 use crate::flow::{Backtracked, Flow, OnNodes};
 use crate::grid::tube::{self, Reach};
-use crate::grid::{offset_coords, Halo, Potential, Precision, SparseGrid, BLOCK_DIM, BLOCK_NODES};
+use crate::grid::{
+    mask_offsets, offset_coords, Halo, Potential, Precision, SparseGrid, BLOCK_DIM, BLOCK_NODES,
+};
 use crate::mesh::Mesh;
 use crate::polygonize::{Crossings, IndexToWorld, Polygonizer};
 use crate::stencil::Stencil;
@@ -408,15 +410,9 @@ impl<P: Potential> Skin<P> {
             .par_iter_mut()
             .zip(self.rates.par_iter())
             .for_each(|(block, rates)| {
-                for w in 0..8 {
-                    let mut bits = block.active[w];
-                    while bits != 0 {
-                        let offset = w * 64 + bits.trailing_zeros() as usize;
-                        bits &= bits - 1;
-                        let f = block.values[offset].to_f32();
-                        block.values[offset] =
-                            P::from_f32((f + dt * rates[offset]).clamp(-1.0, 1.0));
-                    }
+                for offset in mask_offsets(block.active) {
+                    let f = block.values[offset].to_f32();
+                    block.values[offset] = P::from_f32((f + dt * rates[offset]).clamp(-1.0, 1.0));
                 }
             });
         // In a flow the nodes within 1.5 voxels of the skin, which the advection's cubic

@@ -5,7 +5,7 @@ use hashbrown::{HashMap, HashSet};
 
 use rayon::prelude::*;
 
-use super::{Block, BlockId, Potential, SparseGrid, AROUND, BLOCK_DIM};
+use super::{neighbour_steps, Block, BlockId, Potential, SparseGrid, AROUND, BLOCK_DIM};
 use crate::volume::GridData;
 
 impl<P: Potential> SparseGrid<P> {
@@ -99,9 +99,7 @@ impl<P: Potential> SparseGrid<P> {
         }
         sides
     }
-}
 
-impl<P: Potential> SparseGrid<P> {
     /// The tiles marked inside with a neighbour (of 26) neither stored nor marked inside;
     /// the others are told by bits, chunks of 4³ blocks to a word.
     pub(crate) fn exposed_inside_tiles(&self) -> Vec<IVec3> {
@@ -138,6 +136,40 @@ impl<P: Potential> SparseGrid<P> {
                     .filter(move |&c| !neighbour_steps().all(|d| occupied_at(c + d)))
             })
             .collect()
+    }
+
+    /// Both sides of every border between unstored blocks of different sides, sorted, each
+    /// once: each of `tiles` (a block and its side) with a neighbour (of 26) of the other
+    /// side, and those neighbours. A neighbour marked inside is inside; one neither stored
+    /// nor marked is as `unmarked_inside` says.
+    pub(crate) fn tile_borders(
+        &self,
+        tiles: &[(IVec3, bool)],
+        unmarked_inside: impl Fn(IVec3) -> bool + Sync,
+    ) -> Vec<IVec3> {
+        let unmarked_inside = &unmarked_inside;
+        let mut borders: Vec<IVec3> = tiles
+            .par_iter()
+            .flat_map_iter(|&(tile, inside)| {
+                let opposite = move |c: &IVec3| {
+                    if self.inside.contains(c) {
+                        return !inside;
+                    }
+                    self.find(*c).is_none() && unmarked_inside(*c) != inside
+                };
+                let mut across = neighbour_steps()
+                    .map(move |d| tile + d)
+                    .filter(opposite)
+                    .peekable();
+                let touching = across.peek().is_some();
+                std::iter::once(tile)
+                    .filter(move |_| touching)
+                    .chain(across)
+            })
+            .collect();
+        borders.sort_unstable_by_key(|c| c.to_array());
+        borders.dedup();
+        borders
     }
 }
 
@@ -189,10 +221,6 @@ impl TileSides {
             });
         self.outside.iter().map(|&c| (c, false)).chain(faces)
     }
-}
-
-pub(crate) fn neighbour_steps() -> impl Iterator<Item = IVec3> {
-    AROUND.into_iter().filter(|d| *d != IVec3::ZERO)
 }
 
 #[cfg(test)]

@@ -6,7 +6,8 @@ use glam::IVec3;
 use rayon::prelude::*;
 
 use crate::grid::{
-    node_offset, offset_coords, Halo, Potential, SparseGrid, AROUND, BLOCK_DIM, BLOCK_NODES,
+    mask_offsets, node_offset, offset_coords, Halo, Potential, SparseGrid, AROUND, BLOCK_DIM,
+    BLOCK_NODES,
 };
 
 // Node offsets and axes are coordinates here, not just indices.
@@ -122,14 +123,8 @@ fn sweep_nodes<P: Potential>(
                 *v = P::from_f32(f);
             }
         } else {
-            let active = block.active;
-            for (w, &word) in active.iter().enumerate() {
-                let mut bits = word;
-                while bits != 0 {
-                    let offset = w * 64 + bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    block.values[offset] = P::from_f32(values[offset]);
-                }
+            for offset in mask_offsets(block.active) {
+                block.values[offset] = P::from_f32(values[offset]);
             }
         }
     }
@@ -167,17 +162,13 @@ fn godunov(a: [f32; 3], h: f32) -> f32 {
 /// density) can classify neighbouring blocks as wholly inside and wholly outside, and
 /// the skin between them must be on stored nodes to exist.
 pub(crate) fn start_consistently<P: Potential>(grid: &mut SparseGrid<P>) {
-    let mut borders = Vec::new();
-    for &c in grid.inside_tiles() {
-        for d in AROUND {
-            let next = c + d;
-            if !grid.inside_tiles().contains(&next) && grid.find(next).is_none() {
-                borders.push(c);
-                borders.push(next);
-            }
-        }
-    }
-    for c in borders {
+    let inside: Vec<(IVec3, bool)> = grid
+        .exposed_inside_tiles()
+        .into_iter()
+        .map(|c| (c, true))
+        .collect();
+    // Unmarked blocks are outside: a start marks every inside block.
+    for c in grid.tile_borders(&inside, |_| false) {
         grid.touch(c);
     }
 }
