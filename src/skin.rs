@@ -359,7 +359,6 @@ impl<P: Potential> Skin<P> {
                 halo.fill(grid, &around);
                 let crossings = crossings.around(&around);
                 let base = block.coord * BLOCK_DIM;
-                let to_world = |p: Vec3| xf.apply(p);
                 let mut v_max = 0.0f32;
                 for offset in block.active_offsets() {
                     let l = offset_coords(offset);
@@ -369,9 +368,7 @@ impl<P: Potential> Skin<P> {
                     let node = speed::NodeContext {
                         ijk,
                         local: l,
-                        world: xf.apply(ijk.as_vec3()),
-                        to_world: &to_world,
-                        dx: params.dx,
+                        xf,
                         band_width: params.band_width,
                     };
                     let d = speed::attraction_distance(
@@ -388,7 +385,7 @@ impl<P: Potential> Skin<P> {
                         &global,
                         d,
                         stencil.mean_curvature(),
-                        node.dx,
+                        params.dx,
                     );
                     // ∂φ/∂t = −V|∇φ| with φ = f·wΔx and ∇ in index units, upwind.
                     rates[offset] = -v * stencil.upwind_gradient_norm(v > 0.0) / params.dx;

@@ -1,37 +1,57 @@
 //! Finite-difference stencils on the potential (paper §4.4, eq. 4), in index units.
 
-use crate::grid::Halo;
+use crate::grid::{Halo, HALO_DIM};
 use glam::Vec3;
 
-/// The 3×3×3 neighbourhood of a node: what every stencil here reads.
+/// The 3×3×3 neighbourhood of a node, read in place from its block's halo: what every
+/// stencil here reads. (A copy of the 27 values per node cost more than the arithmetic.)
 #[derive(Clone, Copy)]
-pub(crate) struct Stencil {
-    /// v[dx + 1][dy + 1][dz + 1]
-    pub v: [[[f32; 3]; 3]; 3],
+pub(crate) struct Stencil<'a> {
+    values: &'a [f32; HALO_DIM * HALO_DIM * HALO_DIM],
+    /// Halo index of the centre node.
+    centre: usize,
 }
 
-impl Stencil {
+impl<'a> Stencil<'a> {
+    /// The stencil of local node (x, y, z), each in 0..8.
     #[inline]
-    pub(crate) fn from_halo(halo: &Halo, x: i32, y: i32, z: i32) -> Self {
-        let mut v = [[[0.0; 3]; 3]; 3];
-        for (i, plane) in v.iter_mut().enumerate() {
-            for (j, row) in plane.iter_mut().enumerate() {
-                for (k, value) in row.iter_mut().enumerate() {
-                    *value = halo.at(x + i as i32 - 1, y + j as i32 - 1, z + k as i32 - 1);
-                }
-            }
+    pub(crate) fn from_halo(halo: &'a Halo, x: i32, y: i32, z: i32) -> Self {
+        debug_assert!((0..8).contains(&x) && (0..8).contains(&y) && (0..8).contains(&z));
+        Stencil {
+            values: &halo.values,
+            centre: Halo::index(x, y, z),
         }
-        Stencil { v }
     }
 
+    /// The value at offset (dx, dy, dz), each in -1..=1, from the centre.
     #[inline]
-    fn at(&self, dx: i32, dy: i32, dz: i32) -> f32 {
-        self.v[(dx + 1) as usize][(dy + 1) as usize][(dz + 1) as usize]
+    pub(crate) fn at(&self, dx: i32, dy: i32, dz: i32) -> f32 {
+        let step = (dx * HALO_DIM as i32 + dy) * HALO_DIM as i32 + dz;
+        // SAFETY: the centre is a block node (0..8 on each axis, `from_halo`), so every
+        // offset of -1..=1 stays within the halo's -1..=8.
+        unsafe {
+            *self
+                .values
+                .get_unchecked((self.centre as isize + step as isize) as usize)
+        }
     }
 
     #[inline]
     pub(crate) fn center(&self) -> f32 {
-        self.v[1][1][1]
+        self.at(0, 0, 0)
+    }
+
+    /// The six face neighbours, (−x, +x, −y, +y, −z, +z).
+    #[inline]
+    pub(crate) fn faces(&self) -> [f32; 6] {
+        [
+            self.at(-1, 0, 0),
+            self.at(1, 0, 0),
+            self.at(0, -1, 0),
+            self.at(0, 1, 0),
+            self.at(0, 0, -1),
+            self.at(0, 0, 1),
+        ]
     }
 
     /// Central-difference gradient.
@@ -100,21 +120,18 @@ impl Stencil {
 mod tests {
     use super::*;
 
-    #[allow(clippy::needless_range_loop)] // i, j, k are coordinates too
-    fn sampled(f: impl Fn(f32, f32, f32) -> f32, p: Vec3) -> Stencil {
-        let mut v = [[[0.0; 3]; 3]; 3];
-        for i in 0..3 {
-            for j in 0..3 {
-                for k in 0..3 {
-                    v[i][j][k] = f(
-                        p.x + i as f32 - 1.0,
-                        p.y + j as f32 - 1.0,
-                        p.z + k as f32 - 1.0,
-                    );
+    /// A halo holding `f` around `p` (index units), with `p` at local node (1, 1, 1).
+    fn sampled(f: impl Fn(f32, f32, f32) -> f32, p: Vec3) -> Box<Halo> {
+        let mut halo = Box::<Halo>::default();
+        for x in -1..=8 {
+            for y in -1..=8 {
+                for z in -1..=8 {
+                    let q = p + Vec3::new(x as f32, y as f32, z as f32) - Vec3::ONE;
+                    halo.values[Halo::index(x, y, z)] = f(q.x, q.y, q.z);
                 }
             }
         }
-        Stencil { v }
+        halo
     }
 
     #[test]
@@ -123,7 +140,9 @@ mod tests {
         let sdf = |x: f32, y: f32, z: f32| (x * x + y * y + z * z).sqrt() - r;
         // Off-axis, where the slip of eq. 4 would show.
         let p = Vec3::new(11.0, 13.0, 10.0).normalize() * r;
-        let k = sampled(sdf, p).mean_curvature().unwrap();
+        let k = Stencil::from_halo(&sampled(sdf, p), 1, 1, 1)
+            .mean_curvature()
+            .unwrap();
         assert!((k - 2.0 / r).abs() < 0.002, "{k}");
     }
 
@@ -132,7 +151,9 @@ mod tests {
         let r = 15.0;
         let sdf = |x: f32, _y: f32, z: f32| (x * x + z * z).sqrt() - r;
         let p = Vec3::new(r * 0.6, 3.0, r * 0.8);
-        let k = sampled(sdf, p).mean_curvature().unwrap();
+        let k = Stencil::from_halo(&sampled(sdf, p), 1, 1, 1)
+            .mean_curvature()
+            .unwrap();
         assert!((k - 1.0 / r).abs() < 0.002, "{k}");
     }
 }

@@ -9,24 +9,12 @@ use crate::grid::{
     mask_offsets, node_offset, offset_coords, Halo, Potential, SparseGrid, AROUND, BLOCK_DIM,
     BLOCK_NODES,
 };
-
-// Node offsets and axes are coordinates here, not just indices.
-#[allow(clippy::needless_range_loop)]
-/// Whether the node at `l` has an axis neighbour of the other sign: the skin crosses one
-/// of its edges, so its value defines the skin.
-#[inline]
-fn next_to_skin(halo: &Halo, l: IVec3, f: f32) -> bool {
-    IVec3::AXES.iter().any(|&e| {
-        let (lo, hi) = (l - e, l + e);
-        (halo.at(lo.x, lo.y, lo.z) < 0.0) != (f < 0.0)
-            || (halo.at(hi.x, hi.y, hi.z) < 0.0) != (f < 0.0)
-    })
-}
+use crate::stencil::Stencil;
 
 /// One Jacobi sweep of the Godunov upwind scheme for |∇f| = 1/w, over active nodes not
-/// next to the skin (those define it and keep their values) and not within `keep` of it
-/// (|f| < keep). Keeps the potential a scaled signed distance, which the paper leaves to
-/// drift (§4.1); `scratch` is reused.
+/// next to the skin (no face neighbour of the other sign: those define it and keep their
+/// values) and not within `keep` of it (|f| < keep). Keeps the potential a scaled signed
+/// distance, which the paper leaves to drift (§4.1); `scratch` is reused.
 pub(crate) fn renormalize<P: Potential>(
     grid: &mut SparseGrid<P>,
     band_width: f32,
@@ -35,14 +23,17 @@ pub(crate) fn renormalize<P: Potential>(
 ) {
     let h = 1.0 / band_width;
     sweep(grid, scratch, |halo, l, _, f| {
-        if f.abs() < keep || next_to_skin(halo, l, f) {
+        let n = Stencil::from_halo(halo, l.x, l.y, l.z).faces();
+        let inside = f < 0.0;
+        if f.abs() < keep || n.iter().any(|&g| (g < 0.0) != inside) {
             return f;
         }
-        let s = if f < 0.0 { -1.0 } else { 1.0 };
-        let a = IVec3::AXES.map(|e| {
-            let (lo, hi) = (l - e, l + e);
-            (s * halo.at(lo.x, lo.y, lo.z)).min(s * halo.at(hi.x, hi.y, hi.z))
-        });
+        let s = if inside { -1.0 } else { 1.0 };
+        let a = [
+            (s * n[0]).min(s * n[1]),
+            (s * n[2]).min(s * n[3]),
+            (s * n[4]).min(s * n[5]),
+        ];
         s * godunov(a, h).min(1.0)
     });
 }
@@ -133,28 +124,23 @@ fn sweep_nodes<P: Potential>(
 /// Smallest u with Σ max(u − a_i, 0)² = h² (the upwind Eikonal update).
 fn godunov(a: [f32; 3], h: f32) -> f32 {
     // Three values sorted by three compare-and-swaps (a general sort costs more here).
-    let [mut a0, mut a1, mut a2] = a;
-    if a0 > a1 {
-        std::mem::swap(&mut a0, &mut a1);
+    let [a0, a1, a2] = a;
+    let (a0, a1) = (a0.min(a1), a0.max(a1));
+    let (a1, a2) = (a1.min(a2), a1.max(a2));
+    let (a0, a1) = (a0.min(a1), a0.max(a1));
+    // All three candidates, then a choice without branches: which one holds varies from
+    // node to node, and mispredicting it cost more than two square roots.
+    let one = a0 + h;
+    let two = 0.5 * (a0 + a1 + (2.0 * h * h - (a0 - a1).powi(2)).max(0.0).sqrt());
+    let s = a0 + a1 + a2;
+    let q = a0 * a0 + a1 * a1 + a2 * a2;
+    let three = (s + (s * s - 3.0 * (q - h * h)).max(0.0).sqrt()) / 3.0;
+    let more = if two <= a2 { two } else { three };
+    if one <= a1 {
+        one
+    } else {
+        more
     }
-    if a1 > a2 {
-        std::mem::swap(&mut a1, &mut a2);
-    }
-    if a0 > a1 {
-        std::mem::swap(&mut a0, &mut a1);
-    }
-    let a = [a0, a1, a2];
-    let u = a[0] + h;
-    if u <= a[1] {
-        return u;
-    }
-    let u = 0.5 * (a[0] + a[1] + (2.0 * h * h - (a[0] - a[1]).powi(2)).max(0.0).sqrt());
-    if u <= a[2] {
-        return u;
-    }
-    let s = a[0] + a[1] + a[2];
-    let q = a[0] * a[0] + a[1] * a[1] + a[2] * a[2];
-    (s + (s * s - 3.0 * (q - h * h)).max(0.0).sqrt()) / 3.0
 }
 
 /// Stores both sides of every border between an inside tile and a region that is not

@@ -3,7 +3,7 @@
 
 use glam::{IVec3, Vec3};
 
-use crate::polygonize::LocalCrossings;
+use crate::polygonize::{IndexToWorld, LocalCrossings};
 use crate::stencil::Stencil;
 use crate::target::Target;
 
@@ -91,16 +91,13 @@ impl GlobalTerms {
 }
 
 /// What the speed of one node needs to know about where it is.
-pub(crate) struct NodeContext<'a> {
+pub(crate) struct NodeContext {
     /// Global index of the node.
     pub ijk: IVec3,
     /// Its coordinates inside its block (0..8), for crossing lookups.
     pub local: IVec3,
-    /// Its world position.
-    pub world: Vec3,
-    /// World position of an index-space point.
-    pub to_world: &'a dyn Fn(Vec3) -> Vec3,
-    pub dx: f32,
+    /// Index space to world.
+    pub xf: IndexToWorld,
     /// Half-width w of the tube, voxels.
     pub band_width: f32,
 }
@@ -116,7 +113,7 @@ pub(crate) fn attraction_distance(
     target: &dyn Target,
 ) -> f32 {
     if params.attraction == AttractionSample::Node {
-        return target.distance(node.world);
+        return target.distance(node.xf.apply(node.ijk.as_vec3()));
     }
     let f = stencil.center();
     let mut sum = 0.0;
@@ -142,30 +139,24 @@ pub(crate) fn attraction_distance(
     }
     // No incident crossing: the node's projection onto the skin, X − f ∇f/|∇f|². The
     // skin is within the band (w voxels, f = ±1) of any band node: where the gradient
-    // flattens at the band's edge the step would overshoot, so it is capped there.
+    // flattens at the band's edge (|∇f| < 1/w) the step would overshoot, so it is capped
+    // at w|f| there, which is f/max(|∇f|², |∇f|/w) along ∇f.
     let g2 = grad.length_squared();
-    let step = if g2 > 1e-12 {
-        grad * (f / g2)
+    let scale = if g2 > 1e-12 {
+        f / g2.max(g2.sqrt() / node.band_width)
     } else {
-        Vec3::ZERO
+        0.0
     };
-    let limit = node.band_width * f.abs();
-    let step = if step.length() > limit {
-        step.normalize_or_zero() * limit
-    } else {
-        step
-    };
-    let projected = node.ijk.as_vec3() - step;
-    target.distance((node.to_world)(projected))
+    let projected = node.ijk.as_vec3() - grad * scale;
+    target.distance(node.xf.apply(projected))
 }
 
 #[inline]
 fn neighbours(stencil: &Stencil, axis: usize) -> (f32, f32) {
-    let v = &stencil.v;
     match axis {
-        0 => (v[0][1][1], v[2][1][1]),
-        1 => (v[1][0][1], v[1][2][1]),
-        _ => (v[1][1][0], v[1][1][2]),
+        0 => (stencil.at(-1, 0, 0), stencil.at(1, 0, 0)),
+        1 => (stencil.at(0, -1, 0), stencil.at(0, 1, 0)),
+        _ => (stencil.at(0, 0, -1), stencil.at(0, 0, 1)),
     }
 }
 
