@@ -13,6 +13,7 @@ pub mod tube;
 
 use glam::IVec3;
 use hashbrown::{HashMap, HashSet};
+use rayon::prelude::*;
 
 pub(crate) use halo::{Halo, WideHalo, HALO_DIM, WIDE_DIM};
 
@@ -223,6 +224,10 @@ pub struct SparseGrid<P> {
     blocks: Vec<Block<P>>,
     /// Unstored blocks wholly inside; every other unstored block is outside.
     inside: HashSet<IVec3>,
+    /// Each block's neighbourhood, in block order, while `around_fresh`: the passes of a
+    /// step between two band upkeeps read it instead of hashing 26 neighbours each.
+    around: Vec<[Result<BlockId, P>; 27]>,
+    around_fresh: bool,
 }
 
 impl<P: Potential> Default for SparseGrid<P> {
@@ -237,6 +242,8 @@ impl<P: Potential> SparseGrid<P> {
             index: HashMap::new(),
             blocks: Vec::new(),
             inside: HashSet::new(),
+            around: Vec::new(),
+            around_fresh: false,
         }
     }
 
@@ -292,6 +299,7 @@ impl<P: Potential> SparseGrid<P> {
         }
         let value = self.tile_value(coord);
         self.inside.remove(&coord);
+        self.around_fresh = false;
         let id = BlockId(self.blocks.len() as u32);
         if self.blocks.len() == self.blocks.capacity() {
             // Grow by 1/32 rather than doubling: a block is 1–2 KB and the band moves by a
@@ -312,6 +320,7 @@ impl<P: Potential> SparseGrid<P> {
     /// Marks an unstored block as wholly inside (`true`) or outside.
     pub(crate) fn set_tile(&mut self, coord: IVec3, inside: bool) {
         debug_assert!(self.find(coord).is_none());
+        self.around_fresh = false;
         if inside {
             self.inside.insert(coord);
         } else {
@@ -324,6 +333,7 @@ impl<P: Potential> SparseGrid<P> {
         let mut i = 0;
         while i < self.blocks.len() {
             if retire(&self.blocks[i]) {
+                self.around_fresh = false;
                 let block = self.blocks.swap_remove(i);
                 self.index.remove(&block.coord);
                 if block.values[0].to_f32() < 0.0 {
@@ -362,7 +372,9 @@ impl<P: Potential> SparseGrid<P> {
         self.blocks.iter().map(Block::active_count).sum()
     }
 
-    /// Bytes held by the grid: blocks, their index, and the inside tiles.
+    /// Bytes held by the grid's potential: blocks, their index, and the inside tiles. Not
+    /// the neighbourhood cache (216 bytes a block): like the skin's rates (2 KB a block)
+    /// it is a step's scratch, as OpenVDB's tools' temporary buffers are not in memUsage.
     pub fn memory_bytes(&self) -> usize {
         let block = std::mem::size_of::<Block<P>>();
         let entry = std::mem::size_of::<(IVec3, BlockId)>() + 1;
@@ -378,5 +390,36 @@ impl<P: Potential> SparseGrid<P> {
             let c = coord + d;
             self.find(c).ok_or_else(|| self.tile_value(c))
         })
+    }
+
+    /// [`SparseGrid::neighbourhood`] of a block of this grid (one of [`SparseGrid::blocks`]):
+    /// from the cache while no block or tile has changed since
+    /// [`SparseGrid::refresh_neighbourhoods`].
+    #[inline]
+    pub(crate) fn neighbourhood_of(&self, block: &Block<P>) -> [Result<BlockId, P>; 27] {
+        if self.around_fresh {
+            // The block's place in the arena, from its address (a block from elsewhere
+            // is looked up by coordinates instead).
+            let i = (block as *const Block<P> as usize).wrapping_sub(self.blocks.as_ptr() as usize)
+                / std::mem::size_of::<Block<P>>();
+            if let (Some(stored), Some(around)) = (self.blocks.get(i), self.around.get(i)) {
+                if std::ptr::eq(stored, block) {
+                    return *around;
+                }
+            }
+        }
+        self.neighbourhood(block.coord)
+    }
+
+    /// Caches every block's neighbourhood until the blocks or tiles next change.
+    pub(crate) fn refresh_neighbourhoods(&mut self) {
+        if self.around_fresh {
+            return;
+        }
+        let mut around = std::mem::take(&mut self.around);
+        around.clear();
+        around.par_extend(self.blocks.par_iter().map(|b| self.neighbourhood(b.coord)));
+        self.around = around;
+        self.around_fresh = true;
     }
 }

@@ -176,7 +176,7 @@ impl Polygonizer {
                 }
                 // A closed surface has about two triangles per vertex.
                 work.triangles.reserve(2 * work.positions.len());
-                let local = shared.around(&grid.neighbourhood(block.coord));
+                let local = shared.around(&grid.neighbourhood_of(block));
                 for (x, y, active) in active_rows(block) {
                     let corners = [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)];
                     let all = corners
@@ -280,7 +280,7 @@ fn for_each_block<P: Potential, T: Send>(
     items.zip(grid.blocks().par_iter()).for_each_init(
         Box::<Halo>::default,
         |halo, (item, block)| {
-            let around = grid.neighbourhood(block.coord);
+            let around = grid.neighbourhood_of(block);
             if block.active_count() > 0 {
                 halo.fill(grid, &around);
             }

@@ -355,7 +355,7 @@ impl<P: Potential> Skin<P> {
             .par_iter_mut()
             .zip(grid.blocks().par_iter())
             .map_init(Box::<Halo>::default, |halo, (rates, block)| {
-                let around = grid.neighbourhood(block.coord);
+                let around = grid.neighbourhood_of(block);
                 halo.fill(grid, &around);
                 let crossings = crossings.around(&around);
                 let base = block.coord * BLOCK_DIM;

@@ -1,8 +1,7 @@
 //! A block's values with a one-node border taken from its neighbours: every stencil of
 //! the solver and every cube of the polygonizer reads from here, without hashing.
 
-use super::{node_offset, BlockId, Potential, SparseGrid, BLOCK_DIM};
-use glam::IVec3;
+use super::{node_offset, Block, BlockId, Potential, SparseGrid, BLOCK_DIM};
 
 /// Side of the padded cube: 8 nodes plus one on each side.
 pub(crate) const HALO_DIM: usize = 10;
@@ -33,9 +32,9 @@ impl Halo {
         unsafe { *self.values.get_unchecked(Self::index(x, y, z)) }
     }
 
-    /// Fills from the block at `coord` and its 26 neighbours (tiles give their side).
-    pub(crate) fn gather<P: Potential>(&mut self, grid: &SparseGrid<P>, coord: IVec3) {
-        self.fill(grid, &grid.neighbourhood(coord));
+    /// Fills from a block of `grid` and its 26 neighbours (tiles give their side).
+    pub(crate) fn gather<P: Potential>(&mut self, grid: &SparseGrid<P>, block: &Block<P>) {
+        self.fill(grid, &grid.neighbourhood_of(block));
     }
 
     /// Fills from a block's neighbourhood, as [`SparseGrid::neighbourhood`] gives it: each
@@ -119,8 +118,8 @@ impl WideHalo {
     }
 
     /// Fills from the block at `coord` and its 26 neighbours (tiles give their side).
-    pub fn gather<P: Potential>(&mut self, grid: &SparseGrid<P>, coord: IVec3) {
-        let around = grid.neighbourhood(coord);
+    pub(crate) fn gather<P: Potential>(&mut self, grid: &SparseGrid<P>, block: &Block<P>) {
+        let around = grid.neighbourhood_of(block);
         let side = |h: i32| (h.div_euclid(BLOCK_DIM) + 1, h.rem_euclid(BLOCK_DIM));
         for hx in -2..BLOCK_DIM + 2 {
             let (sx, lx) = side(hx);
@@ -143,49 +142,73 @@ impl WideHalo {
 mod tests {
     use super::*;
     use crate::grid::Fixed16;
+    use glam::IVec3;
 
-    /// Every halo node holds the grid's value there, whether it comes from the block, a
-    /// stored neighbour, an inside tile or the outside, for both potential types.
-    fn gathers_what_the_grid_holds<P: Potential>() {
-        let mut below = crate::test_rng(7);
-        let mut grid: SparseGrid<P> = SparseGrid::new();
-        for x in -2..3 {
-            for y in -2..3 {
-                for z in -2..3 {
-                    let c = IVec3::new(x, y, z);
-                    match below(3) {
-                        0 => {
-                            grid.touch(c);
-                        }
-                        1 => grid.set_tile(c, true),
-                        _ => {}
-                    }
-                }
-            }
-        }
-        for block in grid.blocks_mut() {
-            for v in block.values.iter_mut() {
-                *v = P::from_f32(below(2001) as f32 / 1000.0 - 1.0);
-            }
-        }
+    fn assert_halos_match<P: Potential>(grid: &SparseGrid<P>) {
         let mut halo = Box::<Halo>::default();
         for block in grid.blocks() {
-            halo.gather(&grid, block.coord);
+            halo.gather(grid, block);
             let base = block.coord * BLOCK_DIM;
             for x in -1..=BLOCK_DIM {
                 for y in -1..=BLOCK_DIM {
                     for z in -1..=BLOCK_DIM {
                         let l = IVec3::new(x, y, z);
-                        assert_eq!(
-                            halo.at(x, y, z),
-                            grid.value(base + l),
-                            "{l} of {}",
-                            block.coord
-                        );
+                        let at = block.coord;
+                        assert_eq!(halo.at(x, y, z), grid.value(base + l), "{l} of {at}");
                     }
                 }
             }
         }
+    }
+
+    /// Every halo node holds the grid's value there, whether it comes from the block, a
+    /// stored neighbour, an inside tile or the outside, for both potential types; and so
+    /// it does from the cached neighbourhoods, and after blocks and tiles change.
+    fn gathers_what_the_grid_holds<P: Potential>() {
+        let mut below = crate::test_rng(7);
+        let mut grid: SparseGrid<P> = SparseGrid::new();
+        let mut random_blocks = |grid: &mut SparseGrid<P>, tiles: bool| {
+            for x in -2..3 {
+                for y in -2..3 {
+                    for z in -2..3 {
+                        let c = IVec3::new(x, y, z);
+                        match (below(4), grid.find(c)) {
+                            (0, _) => {
+                                grid.touch(c);
+                            }
+                            (1, None) if tiles => grid.set_tile(c, true),
+                            (2, None) if tiles => grid.set_tile(c, false),
+                            _ => {}
+                        }
+                    }
+                }
+            }
+            for block in grid.blocks_mut() {
+                for v in block.values.iter_mut() {
+                    *v = P::from_f32(below(2001) as f32 / 1000.0 - 1.0);
+                }
+                block.active = [below(2); 8];
+            }
+        };
+        random_blocks(&mut grid, true);
+        assert_halos_match(&grid);
+        grid.refresh_neighbourhoods();
+        assert_halos_match(&grid);
+        // Each way blocks and tiles change: the cache must not be read until refreshed.
+        grid.retire_blocks(|b| b.active[0] == 0);
+        assert_halos_match(&grid);
+        grid.refresh_neighbourhoods();
+        random_blocks(&mut grid, false);
+        assert_halos_match(&grid);
+        grid.refresh_neighbourhoods();
+        let tiles: Vec<IVec3> = (-3..4)
+            .map(|x| IVec3::new(x, 3, 0))
+            .filter(|&c| grid.find(c).is_none())
+            .collect();
+        for c in tiles {
+            grid.set_tile(c, true);
+        }
+        assert_halos_match(&grid);
     }
 
     #[test]

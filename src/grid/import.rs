@@ -34,6 +34,7 @@ impl<P: Potential> SparseGrid<P> {
         self.index.clear();
         self.blocks.clear();
         self.inside.clear();
+        self.around_fresh = false;
         let grid = self;
         let mut order: Vec<usize> = (0..data.leaf_count()).collect();
         order.sort_unstable_by_key(|&i| data.leaf_origins[i]);

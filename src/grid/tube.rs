@@ -61,11 +61,12 @@ pub fn upkeep_reaching<P: Potential>(grid: &mut SparseGrid<P>, reach: Reach) {
         }
     }
 
+    grid.refresh_neighbourhoods();
     let masks: Vec<[u64; 8]> = grid
         .blocks()
         .par_iter()
         .map_init(Box::<Halo>::default, |halo, block| {
-            halo.gather(grid, block.coord);
+            halo.gather(grid, block);
             dilated_band(halo, reach)
         })
         .collect();
@@ -73,6 +74,8 @@ pub fn upkeep_reaching<P: Potential>(grid: &mut SparseGrid<P>, reach: Reach) {
         block.active = mask;
     }
     grid.retire_blocks(|b| b.active_count() == 0);
+    // For the passes until the next upkeep.
+    grid.refresh_neighbourhoods();
 }
 
 /// In-band bits of a run of values along z: bit k for value k.

@@ -117,7 +117,7 @@ pub(crate) fn maccormack<P: Potential>(
         .for_each_init(
             Box::<WideHalo>::default,
             |halo, (((block, ahead), (before, out)), (low, high))| {
-                halo.gather(grid_ref, block.coord);
+                halo.gather(grid_ref, block);
                 for offset in 0..BLOCK_NODES {
                     let l = offset_coords(offset);
                     before[offset] = halo.at(l.x, l.y, l.z);
@@ -148,7 +148,7 @@ pub(crate) fn maccormack<P: Potential>(
         .for_each_init(
             Box::<WideHalo>::default,
             |halo, (b, ((block, ahead), out))| {
-                halo.gather(grid_ref, block.coord);
+                halo.gather(grid_ref, block);
                 for offset in block.active_offsets() {
                     let l = offset_coords(offset);
                     let (back, _, _) = interpolate(halo, ahead[offset]);

@@ -95,7 +95,7 @@ fn sweep_nodes<P: Potential>(
         .par_iter_mut()
         .zip(grid_ref.blocks().par_iter())
         .for_each_init(Box::<Halo>::default, |halo, (out, block)| {
-            halo.gather(grid_ref, block.coord);
+            halo.gather(grid_ref, block);
             let base = block.coord * BLOCK_DIM;
             let visit = |offset: usize| {
                 let l = offset_coords(offset);
@@ -200,7 +200,7 @@ pub(crate) fn unstored_crossed<P: Potential>(grid: &SparseGrid<P>) -> Vec<IVec3>
         .blocks()
         .par_iter()
         .map_init(Box::<Halo>::default, |halo, block| {
-            halo.gather(grid, block.coord);
+            halo.gather(grid, block);
             let mut out = Vec::new();
             for x in -1..BLOCK_DIM {
                 for y in -1..BLOCK_DIM {
