@@ -354,36 +354,51 @@ impl<P: Potential> Skin<P> {
         self.rates
             .par_iter_mut()
             .zip(grid.blocks().par_iter())
-            .map_init(Box::<Halo>::default, |halo, (rates, block)| {
+            .map_init(Box::<RatesScratch>::default, |scratch, (rates, block)| {
+                let RatesScratch {
+                    halo,
+                    distance,
+                    queries,
+                } = &mut **scratch;
                 let around = grid.neighbourhood_of(block);
                 halo.fill(grid, &around);
                 let crossings = crossings.around(&around);
                 let base = block.coord * BLOCK_DIM;
-                let mut v_max = 0.0f32;
+                // The target's distance for every node first, the points to evaluate
+                // gathered and then evaluated together: the projections' arithmetic of
+                // many nodes overlaps, instead of waiting on each node's call.
+                queries.clear();
                 for offset in block.active_offsets() {
                     let l = offset_coords(offset);
-                    let stencil = Stencil::from_halo(halo, l.x, l.y, l.z);
-                    let grad = stencil.gradient();
-                    let ijk = base + l;
                     let node = speed::NodeContext {
-                        ijk,
+                        ijk: base + l,
                         local: l,
                         xf,
                         band_width: params.band_width,
                     };
-                    let d = speed::attraction_distance(
+                    let stencil = Stencil::from_halo(halo, l.x, l.y, l.z);
+                    match speed::attraction(
                         &params.speed,
                         &stencil,
-                        grad,
                         &node,
                         &crossings,
                         crossing_distance,
-                        target,
-                    );
+                    ) {
+                        speed::Attraction::Known(d) => distance[offset] = d,
+                        speed::Attraction::At(p) => queries.push((offset, p)),
+                    }
+                }
+                for &(offset, p) in queries.iter() {
+                    distance[offset] = target.distance(p);
+                }
+                let mut v_max = 0.0f32;
+                for offset in block.active_offsets() {
+                    let l = offset_coords(offset);
+                    let stencil = Stencil::from_halo(halo, l.x, l.y, l.z);
                     let (v, advective) = speed::normal_speed(
                         &params.speed,
                         &global,
-                        d,
+                        distance[offset],
                         stencil.mean_curvature(),
                         params.dx,
                     );
@@ -402,28 +417,39 @@ impl<P: Potential> Skin<P> {
     fn apply_rates(&mut self, dt: f32, flow: Option<&dyn Flow>) {
         let w = self.params.band_width;
         let before = self.track_change.then(|| self.grid.clone());
-        self.grid
+        // The blocks the band reaches, read as each block is written (in cache).
+        let mut wake: Vec<(IVec3, u32)> = self
+            .grid
             .blocks_mut()
             .par_iter_mut()
             .zip(self.rates.par_iter())
-            .for_each(|(block, rates)| {
+            .map(|(block, rates)| {
                 for offset in mask_offsets(block.active) {
                     let f = block.values[offset].to_f32();
                     block.values[offset] = P::from_f32((f + dt * rates[offset]).clamp(-1.0, 1.0));
                 }
-            });
+                (block.coord, tube::blocks_reached(&block.values))
+            })
+            .collect();
         // In a flow the nodes within 1.5 voxels of the skin, which the advection's cubic
         // reads, keep their carried values: the first-order Eikonal sweep would bias them
         // every step (a sphere of 8 voxels lost 4 % of its volume a turn; kept within 1, 1.5,
         // 2 and 2.5 voxels: −3.0, +0.1, +0.6, +1.0 %).
         let (keep, reach) = if let Some(flow) = flow {
             advect::maccormack(&mut self.grid, flow, self.xf, dt, &mut self.advect_scratch);
+            wake = tube::wake_list(&self.grid);
             (1.5 / w, Reach::Cube)
         } else {
             (0.0, Reach::Faces)
         };
-        tube::upkeep_reaching(&mut self.grid, reach);
-        for _ in 0..self.params.renormalize_sweeps {
+        // The first renormalisation sweep runs with the upkeep, from the same halos.
+        let sweeps = self.params.renormalize_sweeps;
+        let sweep = (sweeps > 0).then(|| tube::Sweep {
+            update: band::renormalizing(w, keep),
+            scratch: &mut self.rates,
+        });
+        tube::upkeep_from(&mut self.grid, reach, &wake, sweep);
+        for _ in 1..sweeps {
             band::renormalize(&mut self.grid, w, keep, &mut self.rates);
         }
         if let Some(before) = before {
@@ -478,6 +504,25 @@ fn max_change<P: Potential>(before: &SparseGrid<P>, after: &SparseGrid<P>, band_
             .reduce(|| 0.0, f32::max)
     };
     one_way(before, after).max(one_way(after, before))
+}
+
+/// A thread's buffers for the speed pass, one block at a time.
+struct RatesScratch {
+    halo: Halo,
+    /// The target's distance at each node's attraction point.
+    distance: [f32; BLOCK_NODES],
+    /// Nodes whose attraction point is still to evaluate, with the point.
+    queries: Vec<(usize, Vec3)>,
+}
+
+impl Default for RatesScratch {
+    fn default() -> Self {
+        RatesScratch {
+            halo: Halo::default(),
+            distance: [0.0; BLOCK_NODES],
+            queries: Vec::with_capacity(BLOCK_NODES),
+        }
+    }
 }
 
 /// A state the skin cannot take.

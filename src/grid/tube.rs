@@ -6,7 +6,10 @@
 use glam::IVec3;
 use rayon::prelude::*;
 
-use super::{around_bit, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES, HALO_DIM};
+use super::{
+    around_bit, mask_offsets, offset_coords, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES,
+    HALO_DIM,
+};
 
 #[inline]
 fn in_band(f: f32) -> bool {
@@ -34,13 +37,42 @@ pub fn upkeep<P: Potential>(grid: &mut SparseGrid<P>) {
 
 /// [`upkeep`] with the tube reaching `reach` past the band.
 pub fn upkeep_reaching<P: Potential>(grid: &mut SparseGrid<P>, reach: Reach) {
-    // The blocks around each block its band nodes reach (bit n: AROUND's step n).
-    let wake: Vec<(IVec3, u32)> = grid
-        .blocks()
+    let wake = wake_list(grid);
+    upkeep_from(grid, reach, &wake, None::<Sweep<'_, NoSweep>>);
+}
+
+/// The blocks each block's band nodes reach (see [`blocks_reached`]), for [`upkeep_from`].
+pub(crate) fn wake_list<P: Potential>(grid: &SparseGrid<P>) -> Vec<(IVec3, u32)> {
+    grid.blocks()
         .par_iter()
         .map(|block| (block.coord, blocks_reached(&block.values)))
-        .collect();
-    for (coord, reached) in wake {
+        .collect()
+}
+
+/// The type of an absent [`Sweep`].
+pub(crate) type NoSweep = fn(&Halo, IVec3, IVec3, f32) -> f32;
+
+/// A pass over each block's new active nodes run with the tube's own: `update(halo, local,
+/// global, f)` gives a node's new value from the values before the pass (Jacobi).
+pub(crate) struct Sweep<'a, F> {
+    pub update: F,
+    pub scratch: &'a mut Vec<[f32; BLOCK_NODES]>,
+}
+
+/// The tube's upkeep from a [`wake_list`] (taken as the values were written, where a
+/// caller has them in cache): wakes the blocks reached, sets each block's active mask,
+/// runs `sweep` over the new active nodes from the same halo, and retires blocks left
+/// without one. (The sweep sees blocks about to retire as stored, which read as their
+/// tiles do: all their nodes are ±1 of one side.)
+pub(crate) fn upkeep_from<P: Potential, F>(
+    grid: &mut SparseGrid<P>,
+    reach: Reach,
+    wake: &[(IVec3, u32)],
+    sweep: Option<Sweep<'_, F>>,
+) where
+    F: Fn(&Halo, IVec3, IVec3, f32) -> f32 + Sync,
+{
+    for &(coord, reached) in wake {
         match reach {
             Reach::Faces => {
                 for axis in IVec3::AXES {
@@ -62,16 +94,50 @@ pub fn upkeep_reaching<P: Potential>(grid: &mut SparseGrid<P>, reach: Reach) {
     }
 
     grid.refresh_neighbourhoods();
-    let masks: Vec<[u64; 8]> = grid
-        .blocks()
-        .par_iter()
-        .map_init(Box::<Halo>::default, |halo, block| {
-            halo.gather(grid, block);
-            dilated_band(halo, reach)
-        })
-        .collect();
-    for (block, mask) in grid.blocks_mut().iter_mut().zip(masks) {
-        block.active = mask;
+    let grid_ref = &*grid;
+    match sweep {
+        None => {
+            let masks: Vec<[u64; 8]> = grid_ref
+                .blocks()
+                .par_iter()
+                .map_init(Box::<Halo>::default, |halo, block| {
+                    halo.gather(grid_ref, block);
+                    dilated_band(halo, reach)
+                })
+                .collect();
+            grid.blocks_mut()
+                .par_iter_mut()
+                .zip(masks)
+                .for_each(|(block, mask)| block.active = mask);
+        }
+        Some(Sweep { update, scratch }) => {
+            scratch.resize(grid_ref.block_count(), [0.0; BLOCK_NODES]);
+            let masks: Vec<[u64; 8]> = scratch
+                .par_iter_mut()
+                .zip(grid_ref.blocks().par_iter())
+                .map_init(Box::<Halo>::default, |halo, (out, block)| {
+                    halo.gather(grid_ref, block);
+                    let mask = dilated_band(halo, reach);
+                    let base = block.coord * BLOCK_DIM;
+                    for offset in mask_offsets(mask) {
+                        let l = offset_coords(offset);
+                        out[offset] = update(halo, l, base + l, halo.at(l.x, l.y, l.z));
+                    }
+                    mask
+                })
+                .collect();
+            let scratch = &**scratch;
+            grid.blocks_mut()
+                .par_iter_mut()
+                .zip(masks)
+                .zip(scratch.par_iter())
+                .for_each(|((block, mask), values)| {
+                    block.active = mask;
+                    for offset in mask_offsets(mask) {
+                        block.values[offset] = P::from_f32(values[offset]);
+                    }
+                });
+        }
     }
     grid.retire_blocks(|b| b.active_count() == 0);
     // For the passes until the next upkeep.
@@ -87,7 +153,7 @@ fn band_bits<P: Potential>(values: &[P]) -> u16 {
 /// The blocks around a block (bit n for [`super::AROUND`]'s step n, its own left out)
 /// that its band nodes' neighbours reach: across the faces, edges and corners those nodes
 /// lie on (the face steps alone for a tube of face neighbours).
-fn blocks_reached<P: Potential>(values: &[P; BLOCK_NODES]) -> u32 {
+pub(crate) fn blocks_reached<P: Potential>(values: &[P; BLOCK_NODES]) -> u32 {
     super::sides_where(values, in_band)
 }
 

@@ -21,8 +21,17 @@ pub(crate) fn renormalize<P: Potential>(
     keep: f32,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
 ) {
+    sweep(grid, scratch, renormalizing(band_width, keep));
+}
+
+/// [`renormalize`]'s update of one node, for a sweep (or the tube's upkeep) to run.
+pub(crate) fn renormalizing(
+    band_width: f32,
+    keep: f32,
+) -> impl Fn(&Halo, IVec3, IVec3, f32) -> f32 + Sync + Copy {
     let h = 1.0 / band_width;
-    sweep(grid, scratch, |halo, l, _, f| {
+    #[inline(always)]
+    move |halo: &Halo, l: IVec3, _, f: f32| {
         let n = Stencil::from_halo(halo, l.x, l.y, l.z).faces();
         let inside = f < 0.0;
         if f.abs() < keep || n.iter().any(|&g| (g < 0.0) != inside) {
@@ -35,7 +44,7 @@ pub(crate) fn renormalize<P: Potential>(
             (s * n[4]).min(s * n[5]),
         ];
         s * godunov(a, h).min(1.0)
-    });
+    }
 }
 
 /// Makes the potential a signed distance next to the skin, for export: each node with an
@@ -108,7 +117,9 @@ fn sweep_nodes<P: Potential>(
             }
         });
     // Only the nodes visited change (the others keep their values).
-    for (block, values) in grid.blocks_mut().iter_mut().zip(scratch.iter()) {
+    let scratch = &**scratch;
+    let blocks = grid.blocks_mut().par_iter_mut().zip(scratch.par_iter());
+    blocks.for_each(|(block, values)| {
         if all {
             for (v, &f) in block.values.iter_mut().zip(values.iter()) {
                 *v = P::from_f32(f);
@@ -118,7 +129,7 @@ fn sweep_nodes<P: Potential>(
                 block.values[offset] = P::from_f32(values[offset]);
             }
         }
-    }
+    });
 }
 
 /// Smallest u with Σ max(u − a_i, 0)² = h² (the upwind Eikonal update).

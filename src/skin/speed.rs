@@ -5,7 +5,6 @@ use glam::{IVec3, Vec3};
 
 use crate::polygonize::{IndexToWorld, LocalCrossings};
 use crate::stencil::Stencil;
-use crate::target::Target;
 
 /// Where the attraction term reads the target (§4.3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -102,18 +101,26 @@ pub(crate) struct NodeContext {
     pub band_width: f32,
 }
 
-/// The target's signed distance at the node's closest skin point X̃ (§4.3).
-pub(crate) fn attraction_distance(
+/// Where the attraction term reads the target for one node (§4.3).
+pub(crate) enum Attraction {
+    /// The mean of the target's distance at the node's incident crossings.
+    Known(f32),
+    /// The target's distance at this world point.
+    At(Vec3),
+}
+
+/// Where the target's signed distance at the node's closest skin point X̃ is read (§4.3):
+/// the caller evaluates the points of a whole block together.
+#[inline]
+pub(crate) fn attraction(
     params: &SpeedParams,
     stencil: &Stencil,
-    grad: Vec3,
     node: &NodeContext,
     crossings: &LocalCrossings,
     crossing_distance: &[f32],
-    target: &dyn Target,
-) -> f32 {
+) -> Attraction {
     if params.attraction == AttractionSample::Node {
-        return target.distance(node.xf.apply(node.ijk.as_vec3()));
+        return Attraction::At(node.xf.apply(node.ijk.as_vec3()));
     }
     let f = stencil.center();
     let mut sum = 0.0;
@@ -135,12 +142,13 @@ pub(crate) fn attraction_distance(
         }
     }
     if n > 0 {
-        return sum / n as f32;
+        return Attraction::Known(sum / n as f32);
     }
     // No incident crossing: the node's projection onto the skin, X − f ∇f/|∇f|². The
     // skin is within the band (w voxels, f = ±1) of any band node: where the gradient
     // flattens at the band's edge (|∇f| < 1/w) the step would overshoot, so it is capped
     // at w|f| there, which is f/max(|∇f|², |∇f|/w) along ∇f.
+    let grad = stencil.gradient();
     let g2 = grad.length_squared();
     let scale = if g2 > 1e-12 {
         f / g2.max(g2.sqrt() / node.band_width)
@@ -148,7 +156,7 @@ pub(crate) fn attraction_distance(
         0.0
     };
     let projected = node.ijk.as_vec3() - grad * scale;
-    target.distance(node.xf.apply(projected))
+    Attraction::At(node.xf.apply(projected))
 }
 
 #[inline]
