@@ -106,6 +106,17 @@ pub(crate) fn sides_of_rows(rows: impl Fn(i32, i32) -> u16) -> u32 {
     sides & !around_bit(IVec3::ZERO)
 }
 
+/// The set bits of `word`, lowest first.
+pub(crate) fn bits(mut word: u16) -> impl Iterator<Item = i32> {
+    std::iter::from_fn(move || {
+        (word != 0).then(|| {
+            let b = word.trailing_zeros() as i32;
+            word &= word - 1;
+            b
+        })
+    })
+}
+
 /// The node offsets set in an active mask (a copy: the block's values may be written
 /// while they are visited).
 pub(crate) fn mask_offsets(mask: [u64; 8]) -> impl Iterator<Item = usize> {
@@ -214,6 +225,16 @@ impl<P: Potential> Block<P> {
     /// Offsets of active nodes, in order.
     pub(crate) fn active_offsets(&self) -> impl Iterator<Item = usize> {
         mask_offsets(self.active)
+    }
+
+    /// The rows along z with an active node: (x, y, bit z for each active node).
+    pub(crate) fn active_rows(&self) -> impl Iterator<Item = (i32, i32, u16)> + '_ {
+        (0..BLOCK_DIM).flat_map(move |x| {
+            (0..BLOCK_DIM).filter_map(move |y| {
+                let row = (self.active[x as usize] >> (8 * y)) as u16 & 0xFF;
+                (row != 0).then_some((x, y, row))
+            })
+        })
     }
 }
 

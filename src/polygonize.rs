@@ -12,7 +12,7 @@ use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::grid::{
-    around_bit, neighbour_steps, node_offset, row_bits, sides_of_rows, Block, BlockId, Halo,
+    around_bit, bits, neighbour_steps, node_offset, row_bits, sides_of_rows, Block, BlockId, Halo,
     Potential, SparseGrid, TileSides, AROUND, BLOCK_DIM, HALO_DIM,
 };
 use crate::mesh::Mesh;
@@ -110,7 +110,8 @@ impl Polygonizer {
                     ]
                 };
                 // Room for them all at once (a first mesh grows no vector edge by edge).
-                let count: u32 = active_rows(block)
+                let count: u32 = block
+                    .active_rows()
                     .map(|(x, y, active)| {
                         let crossed = crossed_from(x, y);
                         crossed
@@ -124,7 +125,7 @@ impl Polygonizer {
                 if !mesh_only {
                     work.points.reserve(count as usize);
                 }
-                for (x, y, active) in active_rows(block) {
+                for (x, y, active) in block.active_rows() {
                     let crossed = crossed_from(x, y);
                     for z in bits(active & (crossed[0] | crossed[1] | crossed[2])) {
                         let l = IVec3::new(x, y, z);
@@ -177,7 +178,7 @@ impl Polygonizer {
                 // A closed surface has about two triangles per vertex.
                 work.triangles.reserve(2 * work.positions.len());
                 let local = shared.around(&grid.neighbourhood_of(block));
-                for (x, y, active) in active_rows(block) {
+                for (x, y, active) in block.active_rows() {
                     let corners = [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)];
                     let all = corners
                         .iter()
@@ -247,27 +248,6 @@ impl InsideRows {
     fn at(&self, x: i32, y: i32) -> u16 {
         self.0[(x + 1) as usize * HALO_DIM + (y + 1) as usize]
     }
-}
-
-/// A block's rows along z with an active node: (x, y, bit z for each active node).
-fn active_rows<P: Potential>(block: &Block<P>) -> impl Iterator<Item = (i32, i32, u16)> + '_ {
-    (0..BLOCK_DIM).flat_map(move |x| {
-        (0..BLOCK_DIM).filter_map(move |y| {
-            let row = (block.active[x as usize] >> (8 * y)) as u16 & 0xFF;
-            (row != 0).then_some((x, y, row))
-        })
-    })
-}
-
-/// The set bits of `word`, lowest first.
-fn bits(mut word: u16) -> impl Iterator<Item = i32> {
-    std::iter::from_fn(move || {
-        (word != 0).then(|| {
-            let b = word.trailing_zeros() as i32;
-            word &= word - 1;
-            b
-        })
-    })
 }
 
 /// Visits each block of `grid` with its item, its halo (gathered only when the block has

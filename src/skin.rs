@@ -19,11 +19,12 @@ use rayon::prelude::*;
 use crate::flow::{Backtracked, Flow, OnNodes};
 use crate::grid::tube::{self, Reach};
 use crate::grid::{
-    mask_offsets, offset_coords, Halo, Potential, Precision, SparseGrid, BLOCK_DIM, BLOCK_NODES,
+    bits, mask_offsets, node_offset, offset_coords, Halo, Potential, Precision, SparseGrid,
+    BLOCK_DIM, BLOCK_NODES,
 };
 use crate::mesh::Mesh;
 use crate::polygonize::{Crossings, IndexToWorld, Polygonizer};
-use crate::stencil::Stencil;
+use crate::stencil::{RowTerms, Stencil};
 use crate::target::Target;
 
 pub use any::AnySkin;
@@ -392,20 +393,27 @@ impl<P: Potential> Skin<P> {
                     distance[offset] = target.distance(p);
                 }
                 let mut v_max = 0.0f32;
-                for offset in block.active_offsets() {
-                    let l = offset_coords(offset);
-                    let stencil = Stencil::from_halo(halo, l.x, l.y, l.z);
-                    let (v, advective) = speed::normal_speed(
-                        &params.speed,
-                        &global,
-                        distance[offset],
-                        stencil.mean_curvature(),
-                        params.dx,
-                    );
-                    // ∂φ/∂t = −V|∇φ| with φ = f·wΔx and ∇ in index units, upwind.
-                    rates[offset] = -v * stencil.upwind_gradient_norm(v > 0.0) / params.dx;
-                    if stencil.center().abs() < 1.0 {
-                        v_max = v_max.max(advective.abs());
+                for (x, y, row) in block.active_rows() {
+                    let terms = RowTerms::of(halo, x, y);
+                    for z in bits(row) {
+                        let offset = node_offset(x, y, z);
+                        let (v, advective) = speed::normal_speed(
+                            &params.speed,
+                            &global,
+                            distance[offset],
+                            terms.curvature[z as usize],
+                            params.dx,
+                        );
+                        // ∂φ/∂t = −V|∇φ| with φ = f·wΔx and ∇ in index units, upwind.
+                        let norm = if v > 0.0 {
+                            terms.outward[z as usize]
+                        } else {
+                            terms.inward[z as usize]
+                        };
+                        rates[offset] = -v * norm / params.dx;
+                        if halo.at(x, y, z).abs() < 1.0 {
+                            v_max = v_max.max(advective.abs());
+                        }
                     }
                 }
                 v_max

@@ -182,13 +182,10 @@ pub(crate) fn normal_speed(
     params: &SpeedParams,
     global: &GlobalTerms,
     target_distance: f32,
-    curvature_index: Option<f32>,
+    curvature_index: f32,
     dx: f32,
 ) -> (f32, f32) {
-    let kappa = curvature_index
-        .unwrap_or(0.0)
-        .clamp(-MAX_CURVATURE_INDEX, MAX_CURVATURE_INDEX)
-        / dx;
+    let kappa = curvature_index.clamp(-MAX_CURVATURE_INDEX, MAX_CURVATURE_INDEX) / dx;
     // G − iso = −(signed distance): inside the target the skin inflates.
     let advective = params.alpha * (-target_distance) + global.preservation;
     (advective - params.beta * kappa, advective)
