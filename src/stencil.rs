@@ -41,19 +41,6 @@ impl<'a> Stencil<'a> {
         self.at(0, 0, 0)
     }
 
-    /// The six face neighbours, (−x, +x, −y, +y, −z, +z).
-    #[inline]
-    pub(crate) fn faces(&self) -> [f32; 6] {
-        [
-            self.at(-1, 0, 0),
-            self.at(1, 0, 0),
-            self.at(0, -1, 0),
-            self.at(0, 1, 0),
-            self.at(0, 0, -1),
-            self.at(0, 0, 1),
-        ]
-    }
-
     /// Central-difference gradient.
     #[inline]
     pub(crate) fn gradient(&self) -> Vec3 {

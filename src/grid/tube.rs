@@ -7,8 +7,7 @@ use glam::IVec3;
 use rayon::prelude::*;
 
 use super::{
-    around_bit, mask_offsets, offset_coords, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES,
-    HALO_DIM,
+    around_bit, mask_offsets, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES, HALO_DIM,
 };
 
 #[inline]
@@ -50,10 +49,11 @@ pub(crate) fn wake_list<P: Potential>(grid: &SparseGrid<P>) -> Vec<(IVec3, u32)>
 }
 
 /// The type of an absent [`Sweep`].
-pub(crate) type NoSweep = fn(&Halo, IVec3, IVec3, f32) -> f32;
+pub(crate) type NoSweep = fn(&Halo, i32, i32) -> [f32; 8];
 
-/// A pass over each block's new active nodes run with the tube's own: `update(halo, local,
-/// global, f)` gives a node's new value from the values before the pass (Jacobi).
+/// A pass over each block's new active nodes run with the tube's own: `update(halo, x, y)`
+/// gives the new values of the row of local nodes (x, y, 0..8) from the values before the
+/// pass (Jacobi); only the active ones are kept.
 pub(crate) struct Sweep<'a, F> {
     pub update: F,
     pub scratch: &'a mut Vec<[f32; BLOCK_NODES]>,
@@ -70,7 +70,7 @@ pub(crate) fn upkeep_from<P: Potential, F>(
     wake: &[(IVec3, u32)],
     sweep: Option<Sweep<'_, F>>,
 ) where
-    F: Fn(&Halo, IVec3, IVec3, f32) -> f32 + Sync,
+    F: Fn(&Halo, i32, i32) -> [f32; 8] + Sync,
 {
     for &(coord, reached) in wake {
         match reach {
@@ -118,10 +118,13 @@ pub(crate) fn upkeep_from<P: Potential, F>(
                 .map_init(Box::<Halo>::default, |halo, (out, block)| {
                     halo.gather(grid_ref, block);
                     let mask = dilated_band(halo, reach);
-                    let base = block.coord * BLOCK_DIM;
-                    for offset in mask_offsets(mask) {
-                        let l = offset_coords(offset);
-                        out[offset] = update(halo, l, base + l, halo.at(l.x, l.y, l.z));
+                    for x in 0..BLOCK_DIM {
+                        for y in 0..BLOCK_DIM {
+                            if mask[x as usize] >> (8 * y) & 0xFF != 0 {
+                                let start = super::node_offset(x, y, 0);
+                                out[start..start + 8].copy_from_slice(&update(halo, x, y));
+                            }
+                        }
                     }
                     mask
                 })

@@ -9,7 +9,6 @@ use crate::grid::{
     mask_offsets, node_offset, offset_coords, Halo, Potential, SparseGrid, AROUND, BLOCK_DIM,
     BLOCK_NODES,
 };
-use crate::stencil::Stencil;
 
 /// One Jacobi sweep of the Godunov upwind scheme for |∇f| = 1/w, over active nodes not
 /// next to the skin (no face neighbour of the other sign: those define it and keep their
@@ -21,29 +20,54 @@ pub(crate) fn renormalize<P: Potential>(
     keep: f32,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
 ) {
-    sweep(grid, scratch, renormalizing(band_width, keep));
+    let update = renormalizing(band_width, keep);
+    scratch.resize(grid.block_count(), [0.0; BLOCK_NODES]);
+    let grid_ref = &*grid;
+    scratch
+        .par_iter_mut()
+        .zip(grid_ref.blocks().par_iter())
+        .for_each_init(Box::<Halo>::default, |halo, (out, block)| {
+            halo.gather(grid_ref, block);
+            for (x, y, _) in block.active_rows() {
+                let start = node_offset(x, y, 0);
+                out[start..start + 8].copy_from_slice(&update(halo, x, y));
+            }
+        });
+    write_back(grid, scratch, false);
 }
 
-/// [`renormalize`]'s update of one node, for a sweep (or the tube's upkeep) to run.
+/// [`renormalize`]'s update of the eight nodes of a row along z (local x, y in 0..8), for
+/// the tube's upkeep to run row by row: branch-free, so the row computes together.
 pub(crate) fn renormalizing(
     band_width: f32,
     keep: f32,
-) -> impl Fn(&Halo, IVec3, IVec3, f32) -> f32 + Sync + Copy {
+) -> impl Fn(&Halo, i32, i32) -> [f32; 8] + Sync + Copy {
     let h = 1.0 / band_width;
-    #[inline(always)]
-    move |halo: &Halo, l: IVec3, _, f: f32| {
-        let n = Stencil::from_halo(halo, l.x, l.y, l.z).faces();
-        let inside = f < 0.0;
-        if f.abs() < keep || n.iter().any(|&g| (g < 0.0) != inside) {
-            return f;
+    move |halo: &Halo, x: i32, y: i32| {
+        let row = |dx: i32, dy: i32| -> [f32; 10] {
+            let start = Halo::index(x + dx, y + dy, -1);
+            halo.values[start..start + 10]
+                .try_into()
+                .expect("a halo row is ten values")
+        };
+        let (c, xm, xp, ym, yp) = (row(0, 0), row(-1, 0), row(1, 0), row(0, -1), row(0, 1));
+        let mut out = [0.0; 8];
+        for (z, out) in out.iter_mut().enumerate() {
+            let k = z + 1;
+            let f = c[k];
+            let n = [xm[k], xp[k], ym[k], yp[k], c[k - 1], c[k + 1]];
+            let inside = f < 0.0;
+            let next_to_skin = n.iter().fold(false, |any, &g| any | ((g < 0.0) != inside));
+            let s = if inside { -1.0 } else { 1.0 };
+            let a = [
+                (s * n[0]).min(s * n[1]),
+                (s * n[2]).min(s * n[3]),
+                (s * n[4]).min(s * n[5]),
+            ];
+            let u = s * godunov(a, h).min(1.0);
+            *out = if f.abs() < keep || next_to_skin { f } else { u };
         }
-        let s = if inside { -1.0 } else { 1.0 };
-        let a = [
-            (s * n[0]).min(s * n[1]),
-            (s * n[2]).min(s * n[3]),
-            (s * n[4]).min(s * n[5]),
-        ];
-        s * godunov(a, h).min(1.0)
+        out
     }
 }
 
@@ -116,8 +140,12 @@ fn sweep_nodes<P: Potential>(
                 block.active_offsets().for_each(visit);
             }
         });
-    // Only the nodes visited change (the others keep their values).
-    let scratch = &**scratch;
+    write_back(grid, scratch, all);
+}
+
+/// Stores a sweep's values: the active nodes' (the others keep theirs), or every node's
+/// when `all`.
+fn write_back<P: Potential>(grid: &mut SparseGrid<P>, scratch: &[[f32; BLOCK_NODES]], all: bool) {
     let blocks = grid.blocks_mut().par_iter_mut().zip(scratch.par_iter());
     blocks.for_each(|(block, values)| {
         if all {
@@ -133,6 +161,7 @@ fn sweep_nodes<P: Potential>(
 }
 
 /// Smallest u with Σ max(u − a_i, 0)² = h² (the upwind Eikonal update).
+#[inline(always)]
 fn godunov(a: [f32; 3], h: f32) -> f32 {
     // Three values sorted by three compare-and-swaps (a general sort costs more here).
     let [a0, a1, a2] = a;
