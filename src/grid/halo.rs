@@ -1,7 +1,7 @@
 //! A block's values with a one-node border taken from its neighbours: every stencil of
 //! the solver and every cube of the polygonizer reads from here, without hashing.
 
-use super::{node_offset, Block, BlockId, Potential, SparseGrid, BLOCK_DIM};
+use super::{Block, BlockId, Potential, SparseGrid, BLOCK_DIM};
 
 /// Side of the padded cube: 8 nodes plus one on each side.
 pub(crate) const HALO_DIM: usize = 10;
@@ -37,48 +37,67 @@ impl Halo {
         self.fill(grid, &grid.neighbourhood_of(block));
     }
 
-    /// Fills from a block's neighbourhood, as [`SparseGrid::neighbourhood`] gives it: each
-    /// of the 27 sources fills its box of the halo (a corner, an edge run, a face or the
-    /// block itself), a tile as one constant, a block by fixed-length row copies.
+    /// Fills from a block's neighbourhood, as [`SparseGrid::neighbourhood`] gives it.
     pub(crate) fn fill<P: Potential>(
         &mut self,
         grid: &SparseGrid<P>,
         around: &[Result<BlockId, P>; 27],
     ) {
-        const D: usize = BLOCK_DIM as usize;
-        const H: usize = HALO_DIM;
-        // Along one axis, per neighbour step -1, 0, 1: the first halo index, the first
-        // source index and the length of the run.
-        const RUNS: [(usize, usize, usize); 3] = [(0, D - 1, 1), (1, 0, D), (H - 1, 0, 1)];
-        for (n, source) in around.iter().enumerate() {
-            let (hx, bx, nx) = RUNS[n / 9];
-            let (hy, by, ny) = RUNS[n / 3 % 3];
-            let (hz, bz, nz) = RUNS[n % 3];
-            for i in 0..nx {
-                for j in 0..ny {
-                    let start = ((hx + i) * H + hy + j) * H + hz;
-                    let from = ((bx + i) * D + by + j) * D + bz;
-                    // SAFETY: RUNS keeps every run within the block (from + nz ≤ 8³) and
-                    // within the halo (start + nz ≤ 10³). (Checked indexing cost half the
-                    // gather; runs of a fixed length of 8 or 1 are copied fastest.)
-                    unsafe {
-                        let out = self.values.as_mut_ptr().add(start);
-                        match source {
-                            Ok(id) => {
-                                let run = grid.block(*id).values.as_ptr().add(from);
-                                if nz == D {
-                                    let run = &*(run as *const [P; D]);
-                                    *(out as *mut [f32; D]) = run.map(P::to_f32);
-                                } else {
-                                    *out = (*run).to_f32();
-                                }
+        fill_boxes::<P, 1, HALO_DIM, { HALO_DIM * HALO_DIM * HALO_DIM }>(
+            &mut self.values,
+            grid,
+            around,
+        );
+    }
+}
+
+/// Fills a padded cube of side `H` = 8 + 2·`BORDER` (x-major, like a block) from a block's
+/// neighbourhood: each of the 27 sources fills its box (a corner, an edge run, a face or
+/// the block itself), a tile as one constant, a block by fixed-length row copies.
+#[inline(always)]
+fn fill_boxes<P: Potential, const BORDER: usize, const H: usize, const N: usize>(
+    values: &mut [f32; N],
+    grid: &SparseGrid<P>,
+    around: &[Result<BlockId, P>; 27],
+) {
+    const D: usize = BLOCK_DIM as usize;
+    debug_assert!(H == D + 2 * BORDER && N == H * H * H);
+    // Along one axis, per neighbour step -1, 0, 1: the first padded index, the first source
+    // index and the length of the run.
+    let runs: [(usize, usize, usize); 3] = [
+        (0, D - BORDER, BORDER),
+        (BORDER, 0, D),
+        (BORDER + D, 0, BORDER),
+    ];
+    for (n, source) in around.iter().enumerate() {
+        let (hx, bx, nx) = runs[n / 9];
+        let (hy, by, ny) = runs[n / 3 % 3];
+        let (hz, bz, nz) = runs[n % 3];
+        for i in 0..nx {
+            for j in 0..ny {
+                let start = ((hx + i) * H + hy + j) * H + hz;
+                let from = ((bx + i) * D + by + j) * D + bz;
+                // SAFETY: the runs keep every copy within the block (from + nz ≤ 8³) and
+                // within the padded cube (start + nz ≤ H³). (Checked indexing cost half
+                // the gather; runs of a fixed length are copied fastest.)
+                unsafe {
+                    let out = values.as_mut_ptr().add(start);
+                    match source {
+                        Ok(id) => {
+                            let run = grid.block(*id).values.as_ptr().add(from);
+                            if nz == D {
+                                let run = &*(run as *const [P; D]);
+                                *(out as *mut [f32; D]) = run.map(P::to_f32);
+                            } else {
+                                let run = &*(run as *const [P; BORDER]);
+                                *(out as *mut [f32; BORDER]) = run.map(P::to_f32);
                             }
-                            Err(tile) => {
-                                if nz == D {
-                                    *(out as *mut [f32; D]) = [tile.to_f32(); D];
-                                } else {
-                                    *out = tile.to_f32();
-                                }
+                        }
+                        Err(tile) => {
+                            if nz == D {
+                                *(out as *mut [f32; D]) = [tile.to_f32(); D];
+                            } else {
+                                *(out as *mut [f32; BORDER]) = [tile.to_f32(); BORDER];
                             }
                         }
                     }
@@ -92,7 +111,7 @@ impl Halo {
 pub const WIDE_DIM: usize = 12;
 
 /// A block's values with a two-node border, for stencils four nodes wide (the advection's
-/// cubic interpolation). Gathered node by node: it is read once per pass.
+/// cubic interpolation).
 pub struct WideHalo {
     pub values: [f32; WIDE_DIM * WIDE_DIM * WIDE_DIM],
 }
@@ -117,24 +136,13 @@ impl WideHalo {
         self.values[Self::index(x, y, z)]
     }
 
-    /// Fills from the block at `coord` and its 26 neighbours (tiles give their side).
+    /// Fills from a block of `grid` and its 26 neighbours (tiles give their side).
     pub(crate) fn gather<P: Potential>(&mut self, grid: &SparseGrid<P>, block: &Block<P>) {
-        let around = grid.neighbourhood_of(block);
-        let side = |h: i32| (h.div_euclid(BLOCK_DIM) + 1, h.rem_euclid(BLOCK_DIM));
-        for hx in -2..BLOCK_DIM + 2 {
-            let (sx, lx) = side(hx);
-            for hy in -2..BLOCK_DIM + 2 {
-                let (sy, ly) = side(hy);
-                for hz in -2..BLOCK_DIM + 2 {
-                    let (sz, lz) = side(hz);
-                    let value = match &around[(sx * 9 + sy * 3 + sz) as usize] {
-                        Ok(id) => grid.block(*id).values[node_offset(lx, ly, lz)].to_f32(),
-                        Err(tile) => tile.to_f32(),
-                    };
-                    self.values[Self::index(hx, hy, hz)] = value;
-                }
-            }
-        }
+        fill_boxes::<P, 2, WIDE_DIM, { WIDE_DIM * WIDE_DIM * WIDE_DIM }>(
+            &mut self.values,
+            grid,
+            &grid.neighbourhood_of(block),
+        );
     }
 }
 
@@ -146,15 +154,20 @@ mod tests {
 
     fn assert_halos_match<P: Potential>(grid: &SparseGrid<P>) {
         let mut halo = Box::<Halo>::default();
+        let mut wide = Box::<WideHalo>::default();
         for block in grid.blocks() {
             halo.gather(grid, block);
+            wide.gather(grid, block);
             let base = block.coord * BLOCK_DIM;
-            for x in -1..=BLOCK_DIM {
-                for y in -1..=BLOCK_DIM {
-                    for z in -1..=BLOCK_DIM {
+            for x in -2..BLOCK_DIM + 2 {
+                for y in -2..BLOCK_DIM + 2 {
+                    for z in -2..BLOCK_DIM + 2 {
                         let l = IVec3::new(x, y, z);
-                        let at = block.coord;
-                        assert_eq!(halo.at(x, y, z), grid.value(base + l), "{l} of {at}");
+                        let (at, value) = (block.coord, grid.value(base + l));
+                        assert_eq!(wide.at(x, y, z), value, "wide {l} of {at}");
+                        if l.min_element() >= -1 && l.max_element() <= BLOCK_DIM {
+                            assert_eq!(halo.at(x, y, z), value, "{l} of {at}");
+                        }
                     }
                 }
             }

@@ -62,8 +62,8 @@ pub(crate) struct Sweep<'a, F> {
 /// The tube's upkeep from a [`wake_list`] (taken as the values were written, where a
 /// caller has them in cache): wakes the blocks reached, sets each block's active mask,
 /// runs `sweep` over the new active nodes from the same halo, and retires blocks left
-/// without one. (The sweep sees blocks about to retire as stored, which read as their
-/// tiles do: all their nodes are ±1 of one side.)
+/// without one. (The sweep sees blocks about to retire as stored: all their nodes are at
+/// ±1, as their tiles will be.)
 pub(crate) fn upkeep_from<P: Potential, F>(
     grid: &mut SparseGrid<P>,
     reach: Reach,

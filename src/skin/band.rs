@@ -6,8 +6,8 @@ use glam::IVec3;
 use rayon::prelude::*;
 
 use crate::grid::{
-    mask_offsets, node_offset, offset_coords, Halo, Potential, SparseGrid, AROUND, BLOCK_DIM,
-    BLOCK_NODES,
+    mask_offsets, node_offset, offset_coords, Block, Halo, Potential, SparseGrid, AROUND,
+    BLOCK_DIM, BLOCK_NODES,
 };
 
 /// One Jacobi sweep of the Godunov upwind scheme for |∇f| = 1/w, over active nodes not
@@ -21,18 +21,12 @@ pub(crate) fn renormalize<P: Potential>(
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
 ) {
     let update = renormalizing(band_width, keep);
-    scratch.resize(grid.block_count(), [0.0; BLOCK_NODES]);
-    let grid_ref = &*grid;
-    scratch
-        .par_iter_mut()
-        .zip(grid_ref.blocks().par_iter())
-        .for_each_init(Box::<Halo>::default, |halo, (out, block)| {
-            halo.gather(grid_ref, block);
-            for (x, y, _) in block.active_rows() {
-                let start = node_offset(x, y, 0);
-                out[start..start + 8].copy_from_slice(&update(halo, x, y));
-            }
-        });
+    each_halo(grid, scratch, |halo, block, out| {
+        for (x, y, _) in block.active_rows() {
+            let start = node_offset(x, y, 0);
+            out[start..start + 8].copy_from_slice(&update(halo, x, y));
+        }
+    });
     write_back(grid, scratch, false);
 }
 
@@ -122,25 +116,36 @@ fn sweep_nodes<P: Potential>(
     all: bool,
     update: impl Fn(&Halo, IVec3, IVec3, f32) -> f32 + Sync,
 ) {
+    each_halo(grid, scratch, |halo, block, out| {
+        let base = block.coord * BLOCK_DIM;
+        let visit = |offset: usize| {
+            let l = offset_coords(offset);
+            out[offset] = update(halo, l, base + l, halo.at(l.x, l.y, l.z));
+        };
+        if all {
+            (0..BLOCK_NODES).for_each(visit);
+        } else {
+            block.active_offsets().for_each(visit);
+        }
+    });
+    write_back(grid, scratch, all);
+}
+
+/// Runs `visit(halo, block, out)` on every block with its halo gathered, `out` its slot of
+/// `scratch` (resized to the blocks).
+fn each_halo<P: Potential>(
+    grid: &SparseGrid<P>,
+    scratch: &mut Vec<[f32; BLOCK_NODES]>,
+    visit: impl Fn(&Halo, &Block<P>, &mut [f32; BLOCK_NODES]) + Sync,
+) {
     scratch.resize(grid.block_count(), [0.0; BLOCK_NODES]);
-    let grid_ref = &*grid;
     scratch
         .par_iter_mut()
-        .zip(grid_ref.blocks().par_iter())
+        .zip(grid.blocks().par_iter())
         .for_each_init(Box::<Halo>::default, |halo, (out, block)| {
-            halo.gather(grid_ref, block);
-            let base = block.coord * BLOCK_DIM;
-            let visit = |offset: usize| {
-                let l = offset_coords(offset);
-                out[offset] = update(halo, l, base + l, halo.at(l.x, l.y, l.z));
-            };
-            if all {
-                (0..BLOCK_NODES).for_each(visit);
-            } else {
-                block.active_offsets().for_each(visit);
-            }
+            halo.gather(grid, block);
+            visit(halo, block, out);
         });
-    write_back(grid, scratch, all);
 }
 
 /// Stores a sweep's values: the active nodes' (the others keep theirs), or every node's
