@@ -343,10 +343,7 @@ pub fn mesh_vdb(data: GridData, value: impl Fn(f32) -> f32 + Sync) -> Mesh {
         ..Polygonizer::default()
     };
     let mut mesh = Mesh::default();
-    if let Some((dx, origin)) = xf
-        .scale_translate()
-        .filter(|_| std::env::var("NOFAST").is_err())
-    {
+    if let Some((dx, origin)) = xf.scale_translate() {
         // Voxels along the axes: vertices land in world space as the cubes are cut.
         let index = IndexToWorld {
             origin: Vec3::from(origin.map(|c| c as f32)),
