@@ -106,6 +106,16 @@ pub(crate) fn sides_of_rows(rows: impl Fn(i32, i32) -> u16) -> u32 {
     sides & !around_bit(IVec3::ZERO)
 }
 
+/// The rows along z with a node set in an active mask: (x, y, bit z for each node).
+pub(crate) fn mask_rows(mask: [u64; 8]) -> impl Iterator<Item = (i32, i32, u16)> {
+    (0..BLOCK_DIM).flat_map(move |x| {
+        (0..BLOCK_DIM).filter_map(move |y| {
+            let row = (mask[x as usize] >> (8 * y)) as u16 & 0xFF;
+            (row != 0).then_some((x, y, row))
+        })
+    })
+}
+
 /// The set bits of `word`, lowest first.
 pub(crate) fn bits(mut word: u16) -> impl Iterator<Item = i32> {
     std::iter::from_fn(move || {
@@ -228,13 +238,8 @@ impl<P: Potential> Block<P> {
     }
 
     /// The rows along z with an active node: (x, y, bit z for each active node).
-    pub(crate) fn active_rows(&self) -> impl Iterator<Item = (i32, i32, u16)> + '_ {
-        (0..BLOCK_DIM).flat_map(move |x| {
-            (0..BLOCK_DIM).filter_map(move |y| {
-                let row = (self.active[x as usize] >> (8 * y)) as u16 & 0xFF;
-                (row != 0).then_some((x, y, row))
-            })
-        })
+    pub(crate) fn active_rows(&self) -> impl Iterator<Item = (i32, i32, u16)> {
+        mask_rows(self.active)
     }
 }
 

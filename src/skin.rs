@@ -425,7 +425,9 @@ impl<P: Potential> Skin<P> {
     fn apply_rates(&mut self, dt: f32, flow: Option<&dyn Flow>) {
         let w = self.params.band_width;
         let before = self.track_change.then(|| self.grid.clone());
-        // The blocks the band reaches, read as each block is written (in cache).
+        // The blocks the band reaches, read as each block is written (in cache), unless
+        // the advection moves the values again.
+        let reached_now = flow.is_none();
         let mut wake: Vec<(IVec3, u32)> = self
             .grid
             .blocks_mut()
@@ -436,7 +438,12 @@ impl<P: Potential> Skin<P> {
                     let f = block.values[offset].to_f32();
                     block.values[offset] = P::from_f32((f + dt * rates[offset]).clamp(-1.0, 1.0));
                 }
-                (block.coord, tube::blocks_reached(&block.values))
+                let reached = if reached_now {
+                    tube::blocks_reached(&block.values)
+                } else {
+                    0
+                };
+                (block.coord, reached)
             })
             .collect();
         // In a flow the nodes within 1.5 voxels of the skin, which the advection's cubic

@@ -59,6 +59,19 @@ pub(crate) struct Sweep<'a, F> {
     pub scratch: &'a mut Vec<[f32; BLOCK_NODES]>,
 }
 
+/// Runs a row update (see [`Sweep`]) over the rows of `mask` into `out`.
+pub(crate) fn sweep_rows(
+    update: impl Fn(&Halo, i32, i32) -> [f32; 8],
+    halo: &Halo,
+    mask: [u64; 8],
+    out: &mut [f32; BLOCK_NODES],
+) {
+    for (x, y, _) in super::mask_rows(mask) {
+        let start = super::node_offset(x, y, 0);
+        out[start..start + 8].copy_from_slice(&update(halo, x, y));
+    }
+}
+
 /// The tube's upkeep from a [`wake_list`] (taken as the values were written, where a
 /// caller has them in cache): wakes the blocks reached, sets each block's active mask,
 /// runs `sweep` over the new active nodes from the same halo, and retires blocks left
@@ -118,14 +131,7 @@ pub(crate) fn upkeep_from<P: Potential, F>(
                 .map_init(Box::<Halo>::default, |halo, (out, block)| {
                     halo.gather(grid_ref, block);
                     let mask = dilated_band(halo, reach);
-                    for x in 0..BLOCK_DIM {
-                        for y in 0..BLOCK_DIM {
-                            if mask[x as usize] >> (8 * y) & 0xFF != 0 {
-                                let start = super::node_offset(x, y, 0);
-                                out[start..start + 8].copy_from_slice(&update(halo, x, y));
-                            }
-                        }
-                    }
+                    sweep_rows(&update, halo, mask, out);
                     mask
                 })
                 .collect();

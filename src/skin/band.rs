@@ -22,10 +22,7 @@ pub(crate) fn renormalize<P: Potential>(
 ) {
     let update = renormalizing(band_width, keep);
     each_halo(grid, scratch, |halo, block, out| {
-        for (x, y, _) in block.active_rows() {
-            let start = node_offset(x, y, 0);
-            out[start..start + 8].copy_from_slice(&update(halo, x, y));
-        }
+        crate::grid::tube::sweep_rows(update, halo, block.active, out);
     });
     write_back(grid, scratch, false);
 }
@@ -173,8 +170,8 @@ fn godunov(a: [f32; 3], h: f32) -> f32 {
     let (a0, a1) = (a0.min(a1), a0.max(a1));
     let (a1, a2) = (a1.min(a2), a1.max(a2));
     let (a0, a1) = (a0.min(a1), a0.max(a1));
-    // All three candidates, then a choice without branches: which one holds varies from
-    // node to node, and mispredicting it cost more than two square roots.
+    // All three candidates, then a choice without branches, so that a row of nodes
+    // computes it together (`renormalizing`).
     let one = a0 + h;
     let two = 0.5 * (a0 + a1 + (2.0 * h * h - (a0 - a1).powi(2)).max(0.0).sqrt());
     let s = a0 + a1 + a2;
