@@ -15,12 +15,12 @@ use std::time::Instant;
 
 pub use inputs::{
     background_outside, check_transform, check_usable, not_finite, read_target, read_target_in,
-    InputFrames, ParticleInput, ScaleEstimate, TargetRead, TargetUnits, VelocityInput,
-    VelocitySource, VELOCITY_NAMES,
+    InputFrames, ParticleFrame, ParticleInput, ScaleEstimate, TargetRead, TargetUnits,
+    VelocityInput, VelocitySource, VELOCITY_NAMES,
 };
 pub use outputs::{OutputSpec, Outputs, Progress};
 
-use crate::flow::{Flow, Timing};
+use crate::flow::{Flow, FlowMap, Timing};
 use crate::mesh::MeshError;
 use crate::particles::ParticleError;
 use crate::render::RenderError;
@@ -56,6 +56,11 @@ pub enum FrameError {
 pub struct FrameInput<'t> {
     pub target: Box<dyn Target + 't>,
     pub flow: Option<Box<dyn Flow + 't>>,
+    /// The motion over the frame interval that ends here, as a map ([`FlowMap`]: where
+    /// the material was a frame before), when the input knows it (particles matched
+    /// from frame to frame): the skin is carried by it in one trace, then attracted,
+    /// and `flow` is not used.
+    pub carried: Option<Box<dyn FlowMap + 't>>,
     /// Seed the skin where the target has material it has none near ([`AnySkin::seed`]):
     /// for simulations (an emitter, a droplet the skin missed), not for morphs.
     pub seed: bool,
@@ -67,6 +72,7 @@ impl<'t> FrameInput<'t> {
         FrameInput {
             target,
             flow: None,
+            carried: None,
             seed: false,
         }
     }
@@ -120,15 +126,22 @@ pub fn run<'t>(
             0
         } else {
             let input = input_at(frame)?;
-            let before = match previous.take() {
-                Some(flow) => flow,
-                None => input_at(frame - 1)?.flow,
-            };
-            let substeps = {
-                let mut mean = None;
-                let flow = timing.interval(before.as_deref(), input.flow.as_deref(), &mut mean);
-                skin.advance_in_flow(&*input.target, flow, 1.0 / fps)
-                    .substeps
+            let substeps = match &input.carried {
+                Some(map) => {
+                    // The flow map carries the skin; the attraction corrects the shape.
+                    skin.carry(&**map, (1.0 / fps) as f32);
+                    skin.advance(&*input.target, 1.0 / fps).substeps
+                }
+                None => {
+                    let before = match previous.take() {
+                        Some(flow) => flow,
+                        None => input_at(frame - 1)?.flow,
+                    };
+                    let mut mean = None;
+                    let flow = timing.interval(before.as_deref(), input.flow.as_deref(), &mut mean);
+                    skin.advance_in_flow(&*input.target, flow, 1.0 / fps)
+                        .substeps
+                }
             };
             if input.seed {
                 skin.seed(&*input.target);

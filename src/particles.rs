@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 
 pub mod flicker;
+pub mod motion;
 pub mod splash;
 
 /// A particle frame that cannot be read.
@@ -26,6 +27,9 @@ pub struct Particles {
     /// Per-particle velocity (PLY `vx vy vz` or `velocity_x velocity_y velocity_z`), in
     /// the file's units, when it has one.
     pub velocities: Option<Vec<Vec3>>,
+    /// Per-particle identifier (PLY `id`, as SPlisHSPlasH and partio write it), when the
+    /// file has one: the same particle keeps it from frame to frame.
+    pub ids: Option<Vec<i64>>,
 }
 
 /// A particle file format read from bytes.
@@ -136,6 +140,7 @@ fn read_vdb(path: &Path) -> Result<Particles, crate::vdb::VdbError> {
                 .map(|v| Vec3::new(v[0], v[1], v[2]))
                 .collect()
         }),
+        ids: None,
     })
 }
 
@@ -180,6 +185,7 @@ fn read_text(bytes: &[u8]) -> Result<Particles, String> {
         positions,
         radii: (!radii.is_empty()).then_some(radii),
         velocities: None,
+        ids: None,
     })
 }
 
@@ -279,6 +285,7 @@ fn read_ply(bytes: &[u8]) -> Result<Particles, String> {
         _ => return Err("vertex element lacks x, y or z".into()),
     };
     let radius = column(&["radius", "pscale", "r"]);
+    let id = column(&["id", "pid"]);
     let velocity = match (
         column(&["vx", "velocity_x"]),
         column(&["vy", "velocity_y"]),
@@ -294,6 +301,7 @@ fn read_ply(bytes: &[u8]) -> Result<Particles, String> {
     let mut positions = Vec::with_capacity(capacity);
     let mut radii = radius.map(|_| Vec::with_capacity(capacity));
     let mut velocities = velocity.map(|_| Vec::with_capacity(capacity));
+    let mut ids = id.map(|_| Vec::with_capacity(capacity));
     let mut push = |row: &[f64]| {
         positions.push(Vec3::new(row[x] as f32, row[y] as f32, row[z] as f32));
         if let (Some(r), Some(radii)) = (radius, radii.as_mut()) {
@@ -301,6 +309,9 @@ fn read_ply(bytes: &[u8]) -> Result<Particles, String> {
         }
         if let (Some((a, b, c)), Some(v)) = (velocity, velocities.as_mut()) {
             v.push(Vec3::new(row[a] as f32, row[b] as f32, row[c] as f32));
+        }
+        if let (Some(k), Some(ids)) = (id, ids.as_mut()) {
+            ids.push(row[k] as i64);
         }
     };
     match format {
@@ -355,6 +366,7 @@ fn read_ply(bytes: &[u8]) -> Result<Particles, String> {
         positions,
         radii,
         velocities,
+        ids,
     })
 }
 

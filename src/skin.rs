@@ -8,6 +8,7 @@
 mod advect;
 mod any;
 mod band;
+mod carry;
 mod export;
 mod seed;
 pub mod speed;

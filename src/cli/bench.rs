@@ -2,6 +2,7 @@
 //! ratios (these machines are too noisy for absolute times to compare across runs).
 
 mod particles;
+mod sph;
 
 use std::time::Instant;
 
@@ -24,11 +25,17 @@ pub struct BenchArgs {
     /// Also run the largest scaling case (n = 1024: a sphere of radius 256 voxels).
     #[arg(long)]
     full: bool,
-    /// Also race splashsurf on particles: 100 k and 1 M particles, ms per frame; distance
-    /// to the true surface and flicker on a fluid at rest. splashsurf is installed into
-    /// the cache folder with cargo when not found.
+    /// Also race splashsurf on particles: a SPlisHSPlasH dam break in motion (baked once
+    /// into ~/.cache/activeskin/sph, or ACTIVESKIN_SPH_CACHE, with pysplishsplash; skipped
+    /// when it cannot be), time, volume, particles outside and temporal noise per frame;
+    /// 100 k and 1 M particles at rest, ms per frame; distance to the true surface and
+    /// flicker on a fluid at rest. splashsurf is installed into the cache folder with
+    /// cargo when not found.
     #[arg(long)]
     particles: bool,
+    /// Only the particle races (with --particles).
+    #[arg(long, requires = "particles")]
+    particles_only: bool,
     /// The splashsurf binary to race (default: on the PATH, or in ~/.cache/activeskin).
     #[arg(long, requires = "particles")]
     splashsurf: Option<std::path::PathBuf>,
@@ -103,9 +110,31 @@ fn our_step_in_flow(voxels: f32, steps: usize) -> (f64, f64) {
 }
 
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
-    let threads = rayon::current_num_threads();
     let mut report = serde_json::Map::new();
     let mut lines = Vec::new();
+    if !args.particles_only {
+        solver_races(args, &mut lines, &mut report)?;
+    }
+    if args.particles {
+        particles::run(args.splashsurf.as_deref(), &mut lines, &mut report)?;
+    }
+    if args.json {
+        println!("{}", serde_json::Value::Object(report));
+    } else {
+        for line in lines {
+            println!("{line}");
+        }
+    }
+    Ok(())
+}
+
+/// Ours against OpenVDB: step, meshing, memory, scaling, morph races, advection, flicker.
+fn solver_races(
+    args: &BenchArgs,
+    lines: &mut Vec<String>,
+    report: &mut serde_json::Map<String, serde_json::Value>,
+) -> anyhow::Result<()> {
+    let threads = rayon::current_num_threads();
 
     // Per-step throughput, r = 100 voxels: one full step of ours (speed, update, upkeep,
     // renormalisation, polygonization) against one CFL iteration of LevelSetMorphing.
@@ -308,18 +337,6 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         "flicker, jittered static cloud   skin {:.3} voxel/frame   per-frame surfacing {:.3}   {:.1}× less (error {:.3} vs {:.3} voxel)",
         f.skin, f.per_frame, f.per_frame / f.skin, f.skin_error, f.per_frame_error
     ));
-
-    if args.particles {
-        particles::run(args.splashsurf.as_deref(), &mut lines, &mut report)?;
-    }
-
-    if args.json {
-        println!("{}", serde_json::Value::Object(report));
-    } else {
-        for line in lines {
-            println!("{line}");
-        }
-    }
     Ok(())
 }
 

@@ -115,6 +115,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         Ok(FrameInput {
             target: Box::new(Orbiting { time }),
             flow: Some(Box::new(Orbiting { time })),
+            carried: None,
             seed: false,
         })
     })?;
@@ -150,6 +151,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             Ok(FrameInput {
                 target: Box::new(density(frame)),
                 flow: None,
+                carried: None,
                 seed: true,
             })
         },

@@ -1,12 +1,13 @@
 //! `activeskin particles --particles PATTERN --radius R [...]`: a skin dressed on a
 //! particle sequence (paper §6.1), through the same frame loop and outputs as `skin`.
 
-use activeskin::frames::{FrameError, FrameInput, ParticleInput};
+use activeskin::frames::{FrameError, FrameInput, ParticleFrame, ParticleInput};
+use activeskin::particles::Particles;
 use activeskin::skin::AnySkin;
 use std::sync::Arc;
 
-use activeskin::flow::{Flow, Timing};
-use activeskin::target::{fluid_iso, DensityGrid, DEFAULT_SMOOTHING_LENGTH};
+use activeskin::flow::{Flow, FlowMap, Timing};
+use activeskin::target::{fluid_iso, DEFAULT_SMOOTHING_LENGTH};
 use anyhow::Context;
 
 use super::args::{OutputArgs, PhysicsArgs, VelocityTime};
@@ -120,26 +121,46 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
         density_out: None,
         ..particles.clone()
     };
+    let range = input.range;
+    let duration = (1.0 / args.physics.fps) as f32;
+    // The particles of the frames read last, matched with the next frame's: their motion
+    // over the frame carries the skin (§7) when the simulation keeps its particles.
+    let mut kept: Vec<(i64, Particles)> = Vec::new();
     // Each frame is read once: its density is the skin's target and, with
     // --density-out, written as a fog volume on the way.
-    let target_at = |frame: i64| -> Result<DensityGrid, FrameError> {
+    let mut frame_at = |frame: i64| -> Result<ParticleFrame, FrameError> {
         let path = input.pattern.path(frame);
-        if !input.pattern.is_held() && input.existing.binary_search(&frame).is_err() {
+        let exists = |f: i64| input.pattern.is_held() || input.existing.binary_search(&f).is_ok();
+        if !exists(frame) {
             return Err(FrameError::Data(format!(
                 "{}: frame {frame} of the particles is missing",
                 path.display()
             )));
         }
+        let before = match kept.iter().position(|(f, _)| *f == frame - 1) {
+            Some(k) => Some(kept.swap_remove(k).1),
+            // After a resume, or in a chunk: read as an uninterrupted run has it.
+            None if frame > range.0 && exists(frame - 1) => {
+                Some(activeskin::particles::read(&input.pattern.path(frame - 1))?)
+            }
+            None => None,
+        };
         // A warm-up frame writes nothing, its density neither.
-        match frame < write_from {
-            true => quiet_particles.target(&path, frame),
-            false => particles.target(&path, frame),
+        let reader = match frame < write_from {
+            true => &quiet_particles,
+            false => &particles,
+        };
+        let read = reader.frame(&path, frame, before.as_ref(), duration)?;
+        kept.retain(|(f, _)| *f >= frame - 1);
+        if let Some(before) = before {
+            kept.push((frame - 1, before));
         }
+        kept.push((frame, read.particles.clone()));
+        Ok(read)
     };
-    let range = input.range;
     // The skin starts on the first frame's density, one solid: the small voids of a
     // density whose kernel barely spans the spacing would each become a skin to remove.
-    let mut first = target_at(range.0)?;
+    let mut first = frame_at(range.0)?.density;
     first.fill_voids(particles.void_volume());
     let skin = AnySkin::new(&first, params);
     // The loop asks for the first frame once more, for its velocity.
@@ -151,17 +172,22 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
         (args.physics.fps, timing),
         &args.outputs,
         |frame| {
-            let density = match first.take() {
-                Some(grid) if frame == range.0 => grid,
-                _ => Arc::new(target_at(frame)?),
+            let (density, carried) = match first.take() {
+                Some(grid) if frame == range.0 => (grid, false),
+                _ => {
+                    let read = frame_at(frame)?;
+                    (Arc::new(read.density), read.carried)
+                }
             };
-            // Particles that carry velocities carry the skin (§7).
-            let flow = density
-                .has_velocities()
+            // Particles matched from the frame before carry the skin by their own motion;
+            // particles that carry velocities only, by those (§7).
+            let flow = (!carried && density.has_velocities())
                 .then(|| Box::new(density.clone()) as Box<dyn Flow>);
+            let map = carried.then(|| Box::new(density.clone()) as Box<dyn FlowMap>);
             Ok(FrameInput {
                 target: Box::new(density),
                 flow,
+                carried: map,
                 seed: true,
             })
         },

@@ -306,6 +306,7 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
         Ok(FrameInput {
             target,
             flow: flow.map(|f| Box::new(f) as Box<dyn Flow>),
+            carried: None,
             seed: true,
         })
     };

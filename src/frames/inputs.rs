@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use super::FrameError;
 use crate::flow::scale::{self, ScaleFit};
 use crate::flow::{Flow, GridFlow, Mean, Timing};
-use crate::particles;
+use crate::particles::{self, motion::frame_velocities, Particles};
 use crate::sequence::{FramePattern, PatternError};
 use crate::target::{rest_density, Density, DensityGrid, FogTarget, LevelSetTarget, Target};
 use crate::vdb::{self, Grid, WriteOptions};
@@ -262,23 +262,54 @@ pub struct ParticleInput {
     pub velocity_scale: Option<f32>,
 }
 
+/// One particle frame read: its density (the skin's target) and its particles, kept to
+/// match the next frame's ([`crate::particles::motion`]).
+pub struct ParticleFrame {
+    pub density: DensityGrid,
+    pub particles: Particles,
+    /// The density's velocities are each particle's motion since `before`, so the
+    /// density is the frame's flow map ([`crate::flow::FlowMap`]).
+    pub carried: bool,
+}
+
 impl ParticleInput {
     /// Reads the particles of `frame` from `path` (once) and builds their density, with
     /// their velocities when the file has them and they are not ignored.
     pub fn target(&self, path: &Path, frame: i64) -> Result<DensityGrid, FrameError> {
+        Ok(self.frame(path, frame, None, 0.0)?.density)
+    }
+
+    /// [`ParticleInput::target`], keeping the particles; given the particles of the frame
+    /// `duration` seconds `before`, and velocities not ignored, their density carries
+    /// each particle's mean velocity over that interval when the two frames match (ids,
+    /// or an order the motion confirms), the saved velocities otherwise.
+    pub fn frame(
+        &self,
+        path: &Path,
+        frame: i64,
+        before: Option<&Particles>,
+        duration: f32,
+    ) -> Result<ParticleFrame, FrameError> {
         // No particles is a frame without liquid, as an empty grid is.
         let cloud = particles::read(path)?;
         let support = 2.0 * self.smoothing_length;
-        let density = match cloud.radii {
+        let density = match &cloud.radii {
             Some(radii) if !self.ignore_radii => {
                 let supports = radii.iter().map(|r| support * r).collect();
-                Density::with_supports(cloud.positions, supports, self.iso)
+                Density::with_supports(cloud.positions.clone(), supports, self.iso)
             }
-            _ => Density::new(cloud.positions, support * self.radius, self.iso),
+            _ => Density::new(cloud.positions.clone(), support * self.radius, self.iso),
         }
         .normalized(rest_density(self.smoothing_length));
-        let density = match (cloud.velocities, self.velocity_scale) {
-            (Some(v), Some(k)) => {
+        let h = support * self.radius;
+        let motion = match (before, self.velocity_scale) {
+            (Some(before), Some(k)) => frame_velocities(before, &cloud, duration, Some(k), h),
+            _ => None,
+        };
+        let carried = motion.is_some();
+        let density = match (motion, &cloud.velocities, self.velocity_scale) {
+            (Some(u), ..) => density.with_velocities(&u),
+            (None, Some(v), Some(k)) => {
                 let scaled: Vec<Vec3> = v.iter().map(|&u| u * k).collect();
                 density.with_velocities(&scaled)
             }
@@ -290,7 +321,11 @@ impl ParticleInput {
             let meta = vdb::frame_metadata(frame);
             vdb::write_grids(&out.path(frame), &[(&fog, WriteOptions::default())], &meta)?;
         }
-        Ok(grid)
+        Ok(ParticleFrame {
+            density: grid,
+            particles: cloud,
+            carried,
+        })
     }
 
     /// The volume below which an enclosed void of the density is filled when a skin

@@ -28,7 +28,7 @@ pub(crate) struct Scratch {
 
 /// Catmull-Rom weights of the four nodes around a point at fraction `t` past the second.
 #[inline]
-fn cubic_weights(t: f32) -> [f32; 4] {
+pub(super) fn cubic_weights(t: f32) -> [f32; 4] {
     let (t2, t3) = (t * t, t * t * t);
     [
         0.5 * (-t3 + 2.0 * t2 - t),

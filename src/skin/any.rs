@@ -1,7 +1,7 @@
 //! A skin whose storage (f32 or 16-bit fixed point) is chosen at run time.
 
 use super::{Skin, SkinError, SkinParams, SpeedParams, StepStats};
-use crate::flow::Flow;
+use crate::flow::{Flow, FlowMap};
 use crate::grid::{Fixed16, Precision};
 use crate::mesh::Mesh;
 use crate::target::Target;
@@ -39,6 +39,9 @@ impl AnySkin {
         duration: f64,
     ) -> StepStats {
         each!(self, s => s.advance_in_flow(target, flow, duration))
+    }
+    pub fn carry(&mut self, map: &dyn FlowMap, duration: f32) {
+        each!(self, s => s.carry(map, duration))
     }
     pub fn stats(&self) -> StepStats {
         each!(self, s => s.stats())

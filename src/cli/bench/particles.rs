@@ -1,5 +1,5 @@
 //! `activeskin bench --particles`: activeskin and splashsurf, the particle surfacer users
-//! know, on the same clouds in one run, both as whole processes with the machine's threads
+//! know, on the same clouds in one run: a real liquid in motion (`sph.rs`), then both as whole processes with the machine's threads
 //! at the same cell size (the particle radius): time per frame on jittered balls of 100 k
 //! and 1 M particles; on a jittered fluid at rest, each one's distance to the fluid's true
 //! surface and its flicker. splashsurf runs at its usual settings (`-l 2 -c 1 -t 0.6`),
@@ -81,7 +81,7 @@ fn splashsurf(given: Option<&Path>) -> Result<PathBuf, String> {
 }
 
 /// Runs `command`, failing with its stderr; returns the wall time in seconds.
-fn timed(command: &mut Command) -> anyhow::Result<f64> {
+pub(super) fn timed(command: &mut Command) -> anyhow::Result<f64> {
     let start = Instant::now();
     let output = command
         .output()
@@ -178,7 +178,8 @@ pub fn run(
         }
     };
     let root = std::env::temp_dir().join(format!("activeskin-bench-{}", std::process::id()));
-    let result = races(&root, splashsurf.as_deref(), lines, report);
+    let result = super::sph::race(&root, splashsurf.as_deref(), lines, report)
+        .and_then(|()| races(&root, splashsurf.as_deref(), lines, report));
     // The clouds and meshes are large: never left behind.
     let _ = std::fs::remove_dir_all(&root);
     result

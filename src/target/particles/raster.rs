@@ -10,7 +10,7 @@ use hashbrown::HashMap;
 use rayon::prelude::*;
 
 use super::Density;
-use crate::flow::Flow;
+use crate::flow::{Flow, FlowMap};
 use crate::grid::AROUND;
 use crate::target::{Aabb, Target};
 use crate::volume::{GridClass, GridData, Transform, MASK_WORDS};
@@ -480,6 +480,26 @@ impl Flow for DensityGrid {
         } else {
             Vec3::ZERO
         }
+    }
+}
+
+/// The particles' motion over a frame when their velocities are that frame's mean (each
+/// particle's displacement from the frame before, per second: [`super::frame_velocities`]):
+/// the material at p was at p − Δt·u(p), u the kernel-weighted mean; no material where no
+/// particle reaches.
+impl FlowMap for DensityGrid {
+    fn departure(&self, p: Vec3, duration: f32) -> Option<Vec3> {
+        if !self.velocities {
+            return None;
+        }
+        let [g, mx, my, mz] = self.interpolate(p, |b, o| match &b.momentum {
+            Some(m) => [b.field[0][o], m[0][o], m[1][o], m[2][o]],
+            None => EMPTY,
+        });
+        (g > 1e-6).then(|| p - Vec3::new(mx, my, mz) / g * duration)
+    }
+    fn bounds(&self) -> Aabb {
+        self.bounds
     }
 }
 

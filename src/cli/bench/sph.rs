@@ -1,0 +1,279 @@
+//! `activeskin bench --particles`, on a real liquid in motion: a SPlisHSPlasH dam break
+//! (`data/sph/bake_dam_break.py`, baked once into `~/.cache/activeskin/sph/dam_break`),
+//! activeskin at its defaults against splashsurf, both whole processes on the machine's
+//! threads at cell = particle radius, in one run. Per frame: time, enclosed volume
+//! against the particles' N·(2r)³, the particles lying more than r outside the surface,
+//! and the temporal noise — at each vertex of frame n, the mean of the signed distances
+//! to frames n−1 and n+1 (the surface's acceleration: steady motion cancels, flicker
+//! does not). For activeskin, also the mean distance to each frame's own density
+//! iso-surface (its lag).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use activeskin::frames::ParticleInput;
+use activeskin::mesh::Mesh;
+use activeskin::particles;
+use activeskin::target::{fluid_iso, LevelSetTarget, Target, DEFAULT_SMOOTHING_LENGTH};
+use activeskin::vdb::Grid;
+use anyhow::Context;
+use glam::Vec3;
+use rayon::prelude::*;
+use serde_json::json;
+
+use super::particles::timed;
+
+/// The cache's file names, frame numbers unpadded as SPlisHSPlasH writes them.
+const STEM: &str = "dam_break_";
+
+/// Where the cache is looked for and baked: `ACTIVESKIN_SPH_CACHE`, else the user's cache
+/// folder.
+fn cache_dir() -> Option<PathBuf> {
+    if let Some(dir) = std::env::var_os("ACTIVESKIN_SPH_CACHE") {
+        return Some(PathBuf::from(dir));
+    }
+    std::env::var_os("XDG_CACHE_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))
+        .map(|c| c.join("activeskin/sph/dam_break"))
+}
+
+/// The baked cache, baked now when missing and the bake can run; else why not.
+fn cache() -> Result<(PathBuf, usize, f32), String> {
+    let dir = cache_dir().ok_or("no HOME to cache it in")?;
+    let done = dir.join("done");
+    if !done.is_file() {
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/sph/bake_dam_break.py");
+        if !script.is_file() {
+            return Err(format!("no cache in {} and no bake script", dir.display()));
+        }
+        eprintln!(
+            "baking the SPlisHSPlasH dam break into {} (once, a few minutes)",
+            dir.display()
+        );
+        let out = Command::new("python3")
+            .arg(&script)
+            .arg(&dir)
+            .output()
+            .map_err(|e| format!("cannot run python3: {e}"))?;
+        if !out.status.success() || !done.is_file() {
+            let why = String::from_utf8_lossy(&out.stderr);
+            let last = why.lines().last().unwrap_or("failed");
+            return Err(format!(
+                "the bake failed ({last}): pip install pysplishsplash numpy"
+            ));
+        }
+    }
+    let meta: serde_json::Value = std::fs::read(&done)
+        .ok()
+        .and_then(|b| serde_json::from_slice(&b).ok())
+        .ok_or(format!("{}: unreadable", done.display()))?;
+    let frames = meta["frames"].as_u64().ok_or("no frame count")? as usize;
+    let radius = meta["radius"].as_f64().ok_or("no radius")? as f32;
+    Ok((dir, frames, radius))
+}
+
+/// One tool's meshes of the shot, frame by frame, and what they are measured as.
+struct Measured {
+    volume: Vec<f64>,
+    outside: Vec<f64>,
+    noise: Vec<f64>,
+}
+
+/// Signed distances to `mesh`, through OpenVDB's meshToLevelSet with a band of
+/// `half_width` voxels (beyond it, ± the band).
+fn signed_distance(mesh: &Mesh, dx: f32, half_width: f32) -> anyhow::Result<LevelSetTarget> {
+    let grid =
+        Grid::mesh_to_level_set(&mesh.positions, &mesh.triangles, f64::from(dx), half_width)?;
+    Ok(LevelSetTarget::new(&grid.to_data()?))
+}
+
+fn measure(meshes: &[Mesh], clouds: &[Vec<Vec3>], r: f32, dx: f32) -> anyhow::Result<Measured> {
+    // The surface moves up to 40 voxels a frame here: the noise needs distances that far.
+    let sets: Vec<LevelSetTarget> = meshes
+        .iter()
+        .map(|m| signed_distance(m, dx, 64.0))
+        .collect::<anyhow::Result<_>>()?;
+    let volume = meshes
+        .iter()
+        .zip(clouds)
+        .map(|(m, c)| m.volume() / (c.len() as f64 * f64::from(2.0 * r).powi(3)))
+        .collect();
+    let outside = sets
+        .iter()
+        .zip(clouds)
+        .map(|(s, c)| {
+            let far = c.par_iter().filter(|&&p| s.distance(p) > r).count();
+            far as f64 / c.len().max(1) as f64
+        })
+        .collect();
+    let noise = (1..meshes.len().saturating_sub(1))
+        .map(|n| {
+            let m = &meshes[n];
+            let sum: f64 = m
+                .positions
+                .par_iter()
+                .map(|&p| {
+                    f64::from(0.5 * (sets[n - 1].distance(p) + sets[n + 1].distance(p))).abs()
+                })
+                .sum();
+            sum / m.positions.len().max(1) as f64 / f64::from(dx)
+        })
+        .collect();
+    Ok(Measured {
+        volume,
+        outside,
+        noise,
+    })
+}
+
+fn range(values: &[f64]) -> (f64, f64) {
+    values
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        })
+}
+
+fn mean(values: &[f64]) -> f64 {
+    values.iter().sum::<f64>() / values.len().max(1) as f64
+}
+
+pub fn race(
+    root: &Path,
+    splashsurf: Option<&Path>,
+    lines: &mut Vec<String>,
+    report: &mut serde_json::Map<String, serde_json::Value>,
+) -> anyhow::Result<()> {
+    let (cache, frames, r) = match cache() {
+        Ok(found) => found,
+        Err(why) => {
+            lines.push(format!("particles, SPH dam break: skipped: {why}"));
+            return Ok(());
+        }
+    };
+    let dir = root.join("sph");
+    std::fs::create_dir_all(&dir)?;
+    let input = cache.join(format!("{STEM}$F.ply"));
+    let radius = r.to_string();
+    let ours_s = timed(
+        Command::new(std::env::current_exe()?)
+            .arg("particles")
+            .arg("--particles")
+            .arg(&input)
+            .args(["--radius", &radius, "--voxel-size", &radius, "-q"])
+            .arg("--mesh")
+            .arg(dir.join("ours_####.obj"))
+            .arg("--stats")
+            .arg(dir.join("ours.jsonl"))
+            .arg("--frames")
+            .arg(format!("1-{frames}")),
+    )?;
+    let theirs_s = match splashsurf {
+        Some(binary) => Some(timed(
+            Command::new(binary)
+                .arg("reconstruct")
+                .arg(cache.join(format!("{STEM}{{}}.ply")))
+                .args(["-r", &radius, "-l", "2.0", "-c", "1.0", "-t", "0.6", "-q"])
+                .args(["-n", &rayon::current_num_threads().to_string()])
+                .args(["-s", "1", "-e", &frames.to_string()])
+                .arg("--output-dir")
+                .arg(&dir)
+                .args(["-o", "theirs_{}.obj"]),
+        )?),
+        None => None,
+    };
+    let clouds: Vec<Vec<Vec3>> = (1..=frames)
+        .map(|f| Ok(particles::read(&cache.join(format!("{STEM}{f}.ply")))?.positions))
+        .collect::<anyhow::Result<_>>()?;
+    let read = |name: &dyn Fn(usize) -> String| -> anyhow::Result<Vec<Mesh>> {
+        (1..=frames)
+            .map(|f| {
+                let path = dir.join(name(f));
+                Mesh::read_obj(&path).with_context(|| format!("{}", path.display()))
+            })
+            .collect()
+    };
+    let ours_meshes = read(&|f| format!("ours_{f:04}.obj"))?;
+    let ours = measure(&ours_meshes, &clouds, r, r)?;
+    // Lag: each frame's skin against that frame's own density iso-surface.
+    let density = ParticleInput {
+        radius: r,
+        ignore_radii: false,
+        smoothing_length: DEFAULT_SMOOTHING_LENGTH,
+        iso: fluid_iso(DEFAULT_SMOOTHING_LENGTH),
+        density_out: None,
+        dx: r,
+        velocity_scale: None,
+    };
+    let lag: Vec<f64> = ours_meshes
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let target =
+                density.target(&cache.join(format!("{STEM}{}.ply", k + 1)), k as i64 + 1)?;
+            let sum: f64 = m
+                .positions
+                .par_iter()
+                .map(|&p| f64::from(target.distance(p).abs()))
+                .sum();
+            Ok(sum / m.positions.len().max(1) as f64 / f64::from(r))
+        })
+        .collect::<anyhow::Result<_>>()?;
+    let theirs = match splashsurf {
+        Some(_) => Some(measure(
+            &read(&|f| format!("theirs_{f}.obj"))?,
+            &clouds,
+            r,
+            r,
+        )?),
+        None => None,
+    };
+    let substeps: Vec<u64> = std::fs::read_to_string(dir.join("ours.jsonl"))?
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter_map(|v| v["substeps"].as_u64())
+        .collect();
+
+    let per_frame = |s: f64| s / frames as f64 * 1e3;
+    let (v_lo, v_hi) = range(&ours.volume);
+    lines.push(format!(
+        "particles, SPH dam break ({} particles, {frames} frames, cell = r)   ours {:.0} ms/frame, volume/N(2r)³ {v_lo:.3}–{v_hi:.3}, {:.2} % of particles > r outside, noise {:.3} voxel, {:.3} voxel from each frame's density, sub-steps {}–{}{}",
+        clouds[0].len(),
+        per_frame(ours_s),
+        100.0 * range(&ours.outside).1,
+        mean(&ours.noise),
+        mean(&lag),
+        substeps.iter().min().unwrap_or(&0),
+        substeps.iter().max().unwrap_or(&0),
+        match (&theirs, theirs_s) {
+            (Some(t), Some(s)) => {
+                let (lo, hi) = range(&t.volume);
+                format!(
+                    "   splashsurf {:.0} ms/frame, volume {lo:.3}–{hi:.3}, {:.2} % outside, noise {:.3}   time ratio {:.2}, noise ratio {:.2}",
+                    per_frame(s),
+                    100.0 * range(&t.outside).1,
+                    mean(&t.noise),
+                    ours_s / s,
+                    mean(&ours.noise) / mean(&t.noise),
+                )
+            }
+            _ => String::new(),
+        }
+    ));
+    let side = |m: &Measured, seconds: f64| {
+        json!({"ms_per_frame": per_frame(seconds), "volume_ratio": m.volume,
+               "outside_fraction": m.outside, "noise_voxels": m.noise,
+               "noise_mean_voxels": mean(&m.noise)})
+    };
+    report.insert(
+        "particles_sph".into(),
+        json!({"particles": clouds[0].len(), "frames": frames, "radius": r,
+               "ours": side(&ours, ours_s), "ours_lag_voxels": lag, "ours_substeps": substeps,
+               "splashsurf": theirs.as_ref().zip(theirs_s).map(|(t, s)| side(t, s)),
+               "time_ratio": theirs_s.map(|s| ours_s / s),
+               "noise_ratio": theirs.as_ref().map(|t| mean(&ours.noise) / mean(&t.noise))}),
+    );
+    std::fs::remove_dir_all(&dir)?;
+    Ok(())
+}
