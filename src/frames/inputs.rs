@@ -308,7 +308,7 @@ impl ParticleInput {
         };
         let carried = motion.is_some();
         let density = match (motion, &cloud.velocities, self.velocity_scale) {
-            (Some(u), ..) => density.with_velocities(&u),
+            (Some(u), ..) => density.with_velocities(&u).with_velocity_gradients(),
             (None, Some(v), Some(k)) => {
                 let scaled: Vec<Vec3> = v.iter().map(|&u| u * k).collect();
                 density.with_velocities(&scaled)

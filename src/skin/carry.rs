@@ -230,12 +230,13 @@ impl<P: Potential> Skin<P> {
         band::clamp_at_crossings(&mut grid, w, &mut self.rates);
         crate::grid::tube::upkeep(&mut grid);
         self.grid = grid;
-        // A flow stretches and squeezes the distance it carries: made a distance again
-        // around the carried skin, as a start does.
-        for _ in 0..2 {
-            band::renormalize(&mut self.grid, w, 0.0, &mut self.rates);
-            crate::grid::tube::upkeep(&mut self.grid);
-        }
+        // A flow stretches and squeezes the distance it carries: made a distance again,
+        // the nodes within 1.5 voxels of the skin kept as carried, as the advection's are
+        // (measured on the flow-map tests, one sweep: sphere gliding 8 frames −0.15 %
+        // volume, Zalesak one turn −0.26 %; with those nodes redistanced −0.56 / −0.62 %;
+        // none −0.04 / −0.85 %).
+        band::renormalize(&mut self.grid, w, 1.5 / w, &mut self.rates);
+        crate::grid::tube::upkeep(&mut self.grid);
         self.polygonize();
     }
 }

@@ -3,7 +3,7 @@
 //! one support h for all particles or one each (from their radii), neighbours found
 //! through a hashed grid of cells of side max h_i.
 
-use glam::{IVec3, Vec3};
+use glam::{IVec3, Mat3, Vec3};
 use hashbrown::{HashMap, HashSet};
 use rayon::prelude::*;
 
@@ -109,6 +109,9 @@ pub struct Density {
     volumes: Vec<f32>,
     /// Each particle's velocity, in `particles`' order (empty when unknown).
     velocities: Vec<Vec3>,
+    /// Each particle's velocity gradient ([`Density::with_velocity_gradients`]), in
+    /// `particles`' order (empty when not fitted).
+    gradients: Vec<Mat3>,
     /// The largest support: the cell size.
     h: f32,
     iso: f32,
@@ -156,6 +159,7 @@ impl Density {
         Density {
             order: particles.iter().map(|&(.., i)| i).collect(),
             velocities: Vec::new(),
+            gradients: Vec::new(),
             volumes: vec![1.0; particles.len()],
             particles: particles.into_iter().map(|(_, p, k, _)| (p, k)).collect(),
             cells,
@@ -174,6 +178,62 @@ impl Density {
             "one velocity per particle"
         );
         self.velocities = self.order.iter().map(|&i| velocities[i as usize]).collect();
+        self
+    }
+
+    /// Fits each particle's velocity gradient K_i to its neighbours' velocities (weighted
+    /// least squares over the kernel's support, regularised where they span fewer than
+    /// three dimensions, as in a sheet), so that the velocity near particle i is
+    /// u_i + K_i (x − x_i). The kernel-weighted mean of these extends the motion linearly
+    /// past the liquid's surface; the mean of the u_i alone (Shepard) lags the surface
+    /// wherever the motion varies across it: a spreading puddle carried by it gained
+    /// 28 % of its volume in five frames (its top, squeezed, carried from deeper down).
+    pub fn with_velocity_gradients(mut self) -> Self {
+        if self.velocities.is_empty() {
+            return self;
+        }
+        let cells: Vec<(IVec3, u32, u32)> =
+            self.cells.iter().map(|(&c, &(a, b))| (c, a, b)).collect();
+        let fitted: Vec<(u32, Vec<Mat3>)> = cells
+            .par_iter()
+            .map(|&(cell, start, end)| {
+                let runs: Vec<std::ops::Range<usize>> = AROUND
+                    .iter()
+                    .filter_map(|&d| {
+                        let &(a, b) = self.cells.get(&(cell + d))?;
+                        Some(a as usize..b as usize)
+                    })
+                    .collect();
+                let gradients = (start as usize..end as usize)
+                    .map(|i| {
+                        let (p, inv_h2) = self.particles[i];
+                        let u = self.velocities[i];
+                        let (mut moment, mut cross) = (Mat3::ZERO, Mat3::ZERO);
+                        for run in &runs {
+                            for j in run.clone() {
+                                let r = self.particles[j].0 - p;
+                                let s = 1.0 - r.length_squared() * inv_h2;
+                                if s > 0.0 && j != i {
+                                    let w = s * s * s;
+                                    let wr = r * w;
+                                    moment += outer(wr, r);
+                                    cross += outer(self.velocities[j] - u, wr);
+                                }
+                            }
+                        }
+                        let ridge = 0.01 * (moment.x_axis.x + moment.y_axis.y + moment.z_axis.z)
+                            + 1e-12 / inv_h2;
+                        cross * (moment + Mat3::from_diagonal(Vec3::splat(ridge))).inverse()
+                    })
+                    .collect();
+                (start, gradients)
+            })
+            .collect();
+        self.gradients = vec![Mat3::ZERO; self.particles.len()];
+        for (start, gradients) in fitted {
+            self.gradients[start as usize..start as usize + gradients.len()]
+                .copy_from_slice(&gradients);
+        }
         self
     }
 
@@ -302,9 +362,15 @@ impl Density {
     }
 }
 
+/// a bᵀ.
+#[inline]
+fn outer(a: Vec3, b: Vec3) -> Mat3 {
+    Mat3::from_cols(a * b.x, a * b.y, a * b.z)
+}
+
 /// The particles' velocity at a point: their mean weighted by their kernels (Shepard),
-/// the density's own; zero where no particle reaches, or when the particles carry no
-/// velocity.
+/// the density's own, each extended by its gradient when fitted; zero where no particle
+/// reaches, or when the particles carry no velocity.
 impl Flow for Density {
     fn velocity(&self, p: Vec3) -> Vec3 {
         if self.velocities.is_empty() {
@@ -314,15 +380,15 @@ impl Flow for Density {
         let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
         for d in AROUND {
             if let Some(&(start, end)) = self.cells.get(&(cell + d)) {
-                let run = start as usize..end as usize;
-                for ((&(q, inv_h2), &v), &volume) in self.particles[run.clone()]
-                    .iter()
-                    .zip(&self.velocities[run.clone()])
-                    .zip(&self.volumes[run])
-                {
+                for i in start as usize..end as usize {
+                    let (q, inv_h2) = self.particles[i];
                     let s = 1.0 - (p - q).length_squared() * inv_h2;
                     if s > 0.0 {
-                        let w = volume * s * s * s;
+                        let w = self.volumes[i] * s * s * s;
+                        let v = match self.gradients.get(i) {
+                            Some(k) => self.velocities[i] + *k * (p - q),
+                            None => self.velocities[i],
+                        };
                         sum += w * v;
                         weight += w;
                     }

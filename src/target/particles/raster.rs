@@ -5,7 +5,7 @@
 //! O(Δx²) between them. Cost O(particles·(h/Δx)³) once a frame, then O(band) a sub-step,
 //! where summing at each query cost 27 hashed cells per node and sub-step.
 
-use glam::{IVec3, Vec3};
+use glam::{IVec3, Mat3, Vec3};
 use hashbrown::HashMap;
 use rayon::prelude::*;
 
@@ -396,6 +396,8 @@ fn splat(block: &mut Block, density: &Density, i: usize, dx: f32, lo: Vec3, hi: 
     // Whole rows of 8 nodes along z, outside the support weighted 0: vectors, no branch.
     let rz: [f32; 8] = std::array::from_fn(|k| (origin.z + k as i32) as f32 * dx - p.z);
     let v = density.velocities.get(i).copied();
+    // The velocity's gradient, when fitted: the velocity at a node is v + K (node − p).
+    let k = density.gradients.get(i).copied().unwrap_or(Mat3::ZERO);
     let volume = density.volumes[i];
     let [g, gx, gy, gz] = &mut *block.field;
     for x in xs {
@@ -422,10 +424,12 @@ fn splat(block: &mut Block, density: &Density, i: usize, dx: f32, lo: Vec3, hi: 
                 gz[o] += c[k] * rz[k];
             }
             if let (Some(m), Some(v)) = (&mut block.momentum, v) {
-                for (k, o) in row.enumerate() {
-                    m[0][o] += w[k] * v.x;
-                    m[1][o] += w[k] * v.y;
-                    m[2][o] += w[k] * v.z;
+                let row_v = v + k * Vec3::new(rx, ry, 0.0);
+                for (n, o) in row.enumerate() {
+                    let u = row_v + k.z_axis * rz[n];
+                    m[0][o] += w[n] * u.x;
+                    m[1][o] += w[n] * u.y;
+                    m[2][o] += w[n] * u.z;
                 }
             }
         }

@@ -1,0 +1,156 @@
+//! `activeskin particles` on a liquid in motion (issue 27): a ball of particles thrown
+//! down 20 voxels a frame hits the floor and spreads, its velocities consistent with its
+//! motion and its volume conserved. The skin keeps the volume on every frame, sits on each
+//! frame's own density (no lag), and the motion does not set the number of sub-steps.
+#![cfg(feature = "vdb")]
+
+mod common;
+
+use std::path::Path;
+
+use activeskin::frames::ParticleInput;
+use activeskin::skin::{Skin, SkinParams};
+use activeskin::target::{fluid_iso, Target, DEFAULT_SMOOTHING_LENGTH};
+use glam::Vec3;
+
+const R: f32 = 0.01;
+const BALL: f32 = 0.12;
+const FPS: f32 = 24.0;
+/// Thrown down at 20 voxels (of R) a frame.
+const THROWN: f32 = 20.0 * R * FPS;
+const G: f32 = 9.81;
+/// The ball's lowest point starts this high above the floor (z = 0).
+const HEIGHT: f32 = 0.6;
+/// After touching, its height is divided by 1 + SPREAD·t and its radius multiplied by the
+/// square root: a motion that keeps the volume.
+const SPREAD: f32 = 6.0;
+
+/// The lattice ball (spacing 2R), lowest point at `HEIGHT`.
+fn ball() -> Vec<Vec3> {
+    let n = (BALL / (2.0 * R)) as i32;
+    let mut points = Vec::new();
+    for x in -n..=n {
+        for y in -n..=n {
+            for z in -n..=n {
+                let p = Vec3::new(x as f32, y as f32, z as f32) * 2.0 * R;
+                if p.length() <= BALL {
+                    points.push(p + Vec3::new(0.5, 0.5, HEIGHT + BALL));
+                }
+            }
+        }
+    }
+    points
+}
+
+/// Position and velocity at time `t` of the particle that starts at `p`.
+fn motion(p: Vec3, t: f32) -> (Vec3, Vec3) {
+    // Falls until its lowest point meets the floor.
+    let contact = (-THROWN + (THROWN * THROWN + 2.0 * G * HEIGHT).sqrt()) / G;
+    if t <= contact {
+        let fall = THROWN * t + 0.5 * G * t * t;
+        return (p - Vec3::Z * fall, -Vec3::Z * (THROWN + G * t));
+    }
+    let landed = p - Vec3::Z * HEIGHT;
+    let s = 1.0 + SPREAD * (t - contact);
+    let centre = Vec3::new(0.5, 0.5, 0.0);
+    let d = landed - centre;
+    let position = centre + Vec3::new(d.x * s.sqrt(), d.y * s.sqrt(), d.z / s);
+    let rate = Vec3::new(
+        d.x * SPREAD / (2.0 * s.sqrt()),
+        d.y * SPREAD / (2.0 * s.sqrt()),
+        -d.z * SPREAD / (s * s),
+    );
+    (position, rate)
+}
+
+fn write_frame(path: &Path, points: &[(Vec3, Vec3)]) {
+    let mut bytes = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty float vx\nproperty float vy\nproperty float vz\nend_header\n",
+        points.len()
+    )
+    .into_bytes();
+    for (p, v) in points {
+        for c in p.to_array().into_iter().chain(v.to_array()) {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+#[test]
+fn a_thrown_ball_keeps_its_volume_and_no_lag_in_few_sub_steps() {
+    let dir = common::scratch();
+    let start = ball();
+    let frames = 12;
+    for f in 1..=frames {
+        let t = (f - 1) as f32 / FPS;
+        let points: Vec<(Vec3, Vec3)> = start.iter().map(|&p| motion(p, t)).collect();
+        write_frame(&dir.path().join(format!("ball_{f}.ply")), &points);
+    }
+    let pattern = dir.path().join("ball_$F.ply");
+    let stats = dir.path().join("stats.jsonl");
+    let meshes = dir.path().join("skin.####.obj");
+    let radius = R.to_string();
+    let out = common::activeskin(&[
+        "particles",
+        "--particles",
+        pattern.to_str().unwrap(),
+        "--radius",
+        &radius,
+        "--voxel-size",
+        &radius,
+        "--mesh",
+        meshes.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+        "-q",
+    ]);
+    common::assert_ok(&out);
+    let lines = common::stats_lines(&stats);
+    assert_eq!(lines.len(), frames);
+    let density = ParticleInput {
+        radius: R,
+        ignore_radii: false,
+        smoothing_length: DEFAULT_SMOOTHING_LENGTH,
+        iso: fluid_iso(DEFAULT_SMOOTHING_LENGTH),
+        density_out: None,
+        dx: R,
+        velocity_scale: None,
+    };
+    let first_volume = lines[0]["volume"].as_f64().unwrap();
+    let mut report = Vec::new();
+    for (k, line) in lines.iter().enumerate() {
+        let f = k + 1;
+        let volume = line["volume"].as_f64().unwrap() / first_volume;
+        let substeps = line["substeps"].as_u64().unwrap();
+        let mesh = common::read_mesh(&meshes.with_file_name(format!("skin.{f:04}.obj"))).unwrap();
+        let target = density
+            .target(&dir.path().join(format!("ball_{f}.ply")), f as i64)
+            .unwrap();
+        let lag = mesh
+            .positions
+            .iter()
+            .map(|&p| f64::from(target.distance(p).abs() / R))
+            .sum::<f64>()
+            / mesh.positions.len() as f64;
+        let fresh = Skin::<f32>::new(
+            &target,
+            SkinParams {
+                dx: R,
+                ..SkinParams::default()
+            },
+        )
+        .stats()
+        .volume
+            / first_volume;
+        report.push(format!(
+            "{f}: volume {volume:.3} (fresh {fresh:.3}), {lag:.2} voxel, {substeps} sub-steps"
+        ));
+        assert!((volume - 1.0).abs() <= 0.03, "frame {f}: {report:?}");
+        assert!(lag <= 0.5, "frame {f}: {report:?}");
+        assert!(substeps <= 3, "frame {f}: {report:?}");
+        assert_eq!(line["components"].as_u64(), Some(1), "frame {f}");
+    }
+    println!("thrown ball, per frame: {}", report.join("; "));
+    common::assert_clean_meshes(dir.path());
+}
