@@ -208,22 +208,31 @@ impl Density {
                     .map(|i| {
                         let (p, inv_h2) = self.particles[i];
                         let u = self.velocities[i];
+                        // In units of the support, so that the moments are of order 1.
+                        let scale = inv_h2.sqrt();
                         let (mut moment, mut cross) = (Mat3::ZERO, Mat3::ZERO);
                         for run in &runs {
                             for j in run.clone() {
-                                let r = self.particles[j].0 - p;
-                                let s = 1.0 - r.length_squared() * inv_h2;
+                                let r = (self.particles[j].0 - p) * scale;
+                                let s = 1.0 - r.length_squared();
                                 if s > 0.0 && j != i {
-                                    let w = s * s * s;
-                                    let wr = r * w;
+                                    let wr = r * (s * s * s);
                                     moment += outer(wr, r);
                                     cross += outer(self.velocities[j] - u, wr);
                                 }
                             }
                         }
-                        let ridge = 0.01 * (moment.x_axis.x + moment.y_axis.y + moment.z_axis.z)
-                            + 1e-12 / inv_h2;
-                        cross * (moment + Mat3::from_diagonal(Vec3::splat(ridge))).inverse()
+                        let trace = moment.x_axis.x + moment.y_axis.y + moment.z_axis.z;
+                        if trace <= 1e-6 {
+                            return Mat3::ZERO; // a lone particle moves as a whole
+                        }
+                        let ridge = Mat3::from_diagonal(Vec3::splat(0.01 * trace));
+                        let k = cross * (moment + ridge).inverse() * scale;
+                        if k.is_finite() {
+                            k
+                        } else {
+                            Mat3::ZERO
+                        }
                     })
                     .collect();
                 (start, gradients)
