@@ -77,16 +77,21 @@ fn write_frame(path: &Path, points: &[(Vec3, Vec3)]) {
     std::fs::write(path, bytes).unwrap();
 }
 
-#[test]
-fn a_thrown_ball_keeps_its_volume_and_no_lag_in_few_sub_steps() {
-    let dir = common::scratch();
+/// Writes frames 1..=`frames` of the thrown ball as `dir/ball_F.ply` (unpadded).
+fn write_shot(dir: &Path, frames: usize) {
     let start = ball();
-    let frames = 12;
     for f in 1..=frames {
         let t = (f - 1) as f32 / FPS;
         let points: Vec<(Vec3, Vec3)> = start.iter().map(|&p| motion(p, t)).collect();
-        write_frame(&dir.path().join(format!("ball_{f}.ply")), &points);
+        write_frame(&dir.join(format!("ball_{f}.ply")), &points);
     }
+}
+
+#[test]
+fn a_thrown_ball_keeps_its_volume_and_no_lag_in_few_sub_steps() {
+    let dir = common::scratch();
+    let frames = 12;
+    write_shot(dir.path(), frames);
     let pattern = dir.path().join("ball_$F.ply");
     let stats = dir.path().join("stats.jsonl");
     let meshes = dir.path().join("skin.####.obj");
@@ -153,4 +158,53 @@ fn a_thrown_ball_keeps_its_volume_and_no_lag_in_few_sub_steps() {
     }
     println!("thrown ball, per frame: {}", report.join("; "));
     common::assert_clean_meshes(dir.path());
+}
+
+#[test]
+fn a_carried_run_resumes_bit_for_bit() {
+    let dir = common::scratch();
+    write_shot(dir.path(), 10);
+    let pattern = dir.path().join("ball_$F.ply");
+    let run = |out: &Path, resume: bool| {
+        let vdb = out.join("s.####.vdb");
+        let obj = out.join("s.####.obj");
+        let mut args = vec![
+            "particles",
+            "--particles",
+            pattern.to_str().unwrap(),
+            "--radius",
+            "0.01",
+            "--voxel-size",
+            "0.01",
+            "--out",
+            vdb.to_str().unwrap(),
+            "--mesh",
+            obj.to_str().unwrap(),
+            "-q",
+        ];
+        if resume {
+            args.push("--resume");
+        }
+        common::assert_ok(&common::activeskin(&args));
+    };
+    let whole = dir.path().join("whole");
+    run(&whole, false);
+    // Killed after frame 5: its first five frames on disk, then resumed.
+    let resumed = dir.path().join("resumed");
+    std::fs::create_dir_all(&resumed).unwrap();
+    for f in 1..=5 {
+        for ext in ["vdb", "obj"] {
+            let name = format!("s.{f:04}.{ext}");
+            std::fs::copy(whole.join(&name), resumed.join(&name)).unwrap();
+        }
+    }
+    run(&resumed, true);
+    for f in 6..=10 {
+        let name = format!("s.{f:04}.obj");
+        assert!(
+            std::fs::read(whole.join(&name)).unwrap()
+                == std::fs::read(resumed.join(&name)).unwrap(),
+            "{name} differs after a resume"
+        );
+    }
 }

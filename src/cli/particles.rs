@@ -44,10 +44,12 @@ pub struct ParticlesArgs {
     /// Inclusive frame range (default: every frame the pattern finds).
     #[arg(long)]
     frames: Option<String>,
-    /// Ignore the particles' velocities (PLY vx vy vz): follow by attraction alone.
+    /// Ignore the particles' motion — their displacements from frame to frame (matched by
+    /// id or order) and their velocities (PLY vx vy vz): follow by attraction alone.
     #[arg(long)]
     no_velocity: bool,
-    /// Multiplies the particles' velocities into world units per second.
+    /// Multiplies the particles' velocities into world units per second (not their
+    /// displacements between matched frames, which are in world units already).
     #[arg(long, default_value_t = 1.0)]
     velocity_scale: f32,
     /// Which frames' velocities carry the liquid from one frame to the next: `mid` (the
