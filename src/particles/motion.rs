@@ -20,7 +20,7 @@ pub fn frame_velocities(
     scale: Option<f32>,
     h: f32,
 ) -> Option<Vec<Vec3>> {
-    if !(duration > 0.0) || now.positions.is_empty() {
+    if duration.is_nan() || duration <= 0.0 || now.positions.is_empty() {
         return None;
     }
     let own = |i: usize| -> Vec3 {
