@@ -77,19 +77,22 @@ impl Flow for Rigid {
     }
 }
 
-/// A rigid motion as a frame's map over `bounds` (everywhere in them): the flow traced
-/// back with 64 RK4 steps, exact to float precision for tests of [`FlowMap`].
-pub struct RigidMap {
-    pub motion: Rigid,
+/// A velocity field as a frame's map over `bounds` (everywhere in them): each point traced
+/// back through `flow` with RK4 steps of at most `step` world units (64 at most).
+pub struct Traced<'a> {
+    pub flow: &'a dyn Flow,
     pub bounds: Aabb,
+    pub step: f32,
 }
 
-impl FlowMap for RigidMap {
+impl FlowMap for Traced<'_> {
     fn departure(&self, p: Vec3, duration: f32) -> Option<Vec3> {
-        let h = -duration / 64.0;
-        let v = |x: Vec3| self.motion.velocity(x);
+        let v = |x: Vec3| self.flow.velocity(x);
+        let reach = v(p).length() * duration;
+        let n = (reach / self.step).ceil().clamp(1.0, 64.0);
+        let h = -duration / n;
         let mut x = p;
-        for _ in 0..64 {
+        for _ in 0..n as usize {
             let k1 = v(x);
             let k2 = v(x + 0.5 * h * k1);
             let k3 = v(x + 0.5 * h * k2);

@@ -158,7 +158,7 @@ impl<P: Potential> Skin<P> {
     /// holds, at each node, the old potential where the node's material was; where no
     /// material is near, the outside. The blocks stored are those whose centre's
     /// material came from a stored block; the others take the side of the tile it came
-    /// from. The clock is not moved: [`Skin::advance`] then attracts the carried skin
+    /// from. The skin keeps its volume ([`Skin::keep_volume`]). The clock is not moved: [`Skin::advance`] then attracts the carried skin
     /// to the frame's target over the same `duration`.
     pub fn carry(&mut self, map: &dyn FlowMap, duration: f32) {
         let (dx, w) = (self.params.dx, self.params.band_width);
@@ -257,9 +257,9 @@ impl<P: Potential> Skin<P> {
         self.grid = grid;
         // A flow stretches and squeezes the distance it carries: made a distance again,
         // the nodes within 1.5 voxels of the skin kept as carried, as the advection's are
-        // (measured on the flow-map tests, one sweep: sphere gliding 8 frames −0.15 %
-        // volume, Zalesak one turn −0.26 %; with those nodes redistanced −0.56 / −0.62 %;
-        // none −0.04 / −0.85 %).
+        // (measured on the flow-map tests before the volume was kept, one sweep: sphere
+        // gliding 8 frames −0.15 % volume, Zalesak one turn −0.26 %; with those nodes
+        // redistanced −0.56 / −0.62 %; no sweep −0.04 / −0.85 %).
         band::renormalize(&mut self.grid, w, 1.5 / w, &mut self.rates);
         crate::grid::tube::upkeep(&mut self.grid);
         self.polygonize();
