@@ -158,7 +158,7 @@ impl<P: Potential> Skin<P> {
     /// holds, at each node, the old potential where the node's material was; where no
     /// material is near, the outside. The blocks stored are those whose centre's
     /// material came from a stored block; the others take the side of the tile it came
-    /// from. The skin keeps its volume ([`Skin::keep_volume`]). The clock is not moved: [`Skin::advance`] then attracts the carried skin
+    /// from. The skin keeps its volume (see `keep_volume`). The clock is not moved: [`Skin::advance`] then attracts the carried skin
     /// to the frame's target over the same `duration`.
     pub fn carry(&mut self, map: &dyn FlowMap, duration: f32) {
         let (dx, w) = (self.params.dx, self.params.band_width);
