@@ -233,10 +233,18 @@ pub fn race(
         )?),
         None => None,
     };
-    let substeps: Vec<u64> = std::fs::read_to_string(dir.join("ours.jsonl"))?
+    let stats: Vec<serde_json::Value> = std::fs::read_to_string(dir.join("ours.jsonl"))?
         .lines()
-        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect();
+    let substeps: Vec<u64> = stats
+        .iter()
         .filter_map(|v| v["substeps"].as_u64())
+        .collect();
+    // Each frame's own time, as the run measured it (reading, solving, writing).
+    let frame_ms: Vec<f64> = stats
+        .iter()
+        .filter_map(|v| v["milliseconds"].as_f64())
         .collect();
 
     let per_frame = |s: f64| s / frames as f64 * 1e3;
@@ -274,6 +282,7 @@ pub fn race(
         "particles_sph".into(),
         json!({"particles": clouds[0].len(), "frames": frames, "radius": r,
                "ours": side(&ours, ours_s), "ours_lag_voxels": lag, "ours_substeps": substeps,
+               "ours_frame_ms": frame_ms,
                "splashsurf": theirs.as_ref().zip(theirs_s).map(|(t, s)| side(t, s)),
                "time_ratio": theirs_s.map(|s| ours_s / s),
                "noise_ratio": theirs.as_ref().map(|t| mean(&ours.noise) / mean(&t.noise))}),
