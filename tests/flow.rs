@@ -267,21 +267,29 @@ impl Target for Slotted {
     }
 }
 
+impl Slotted {
+    /// Zalesak's disc in 3-D: radius 15 voxels, slot 5 voxels wide and 25 deep, 0.3 off the
+    /// axis.
+    fn zalesak(dx: f32) -> Self {
+        let center = Vec3::new(0.3, 0.0, 0.0);
+        Slotted {
+            sphere: Sphere {
+                center,
+                radius: 15.0 * dx,
+            },
+            slot: BoxShape {
+                center: center + Vec3::new(0.0, 5.0 * dx, 0.0),
+                half_size: Vec3::new(2.5 * dx, 12.5 * dx, 1.0),
+            },
+        }
+    }
+}
+
 #[test]
 fn zalesaks_slotted_sphere_through_a_full_turn() {
     // Radius 15 voxels, slot 5 voxels wide and 25 deep, 0.3 off the axis at Δx = 1/50.
     let dx = 1.0 / 50.0;
-    let center = Vec3::new(0.3, 0.0, 0.0);
-    let slotted = Slotted {
-        sphere: Sphere {
-            center,
-            radius: 15.0 * dx,
-        },
-        slot: BoxShape {
-            center: center + Vec3::new(0.0, 5.0 * dx, 0.0),
-            half_size: Vec3::new(2.5 * dx, 12.5 * dx, 1.0),
-        },
-    };
+    let slotted = Slotted::zalesak(dx);
     let (volume, shape) = one_turn(&slotted, dx);
     println!(
         "Zalesak's slotted sphere, one turn: volume {:+.2} %, start to end {shape:.3} voxel (Hausdorff, sharp edges included)",
@@ -409,17 +417,7 @@ fn a_flow_map_carries_the_skin_twenty_voxels_a_frame_in_one_trace() {
 fn a_flow_map_turns_zalesaks_sphere_with_its_edges() {
     // The same disc as the advection's full turn, in 48 traces of 7.5°.
     let dx = 1.0 / 50.0;
-    let center = Vec3::new(0.3, 0.0, 0.0);
-    let slotted = Slotted {
-        sphere: Sphere {
-            center,
-            radius: 15.0 * dx,
-        },
-        slot: BoxShape {
-            center: center + Vec3::new(0.0, 5.0 * dx, 0.0),
-            half_size: Vec3::new(2.5 * dx, 12.5 * dx, 1.0),
-        },
-    };
+    let slotted = Slotted::zalesak(dx);
     let motion = Rigid {
         center: Vec3::ZERO,
         linear: Vec3::ZERO,

@@ -5,6 +5,7 @@
 
 use glam::Vec3;
 use hashbrown::HashMap;
+use rayon::prelude::*;
 
 use super::Particles;
 
@@ -91,11 +92,11 @@ impl Motion {
 
 fn assess(positions: &[Vec3], moved: &[Vec3], h: f32) -> Motion {
     let mut filed: Vec<(glam::IVec3, u32)> = positions
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(i, p)| ((*p / h).floor().as_ivec3(), i as u32))
         .collect();
-    filed.sort_unstable_by_key(|(c, i)| (c.to_array(), *i));
+    filed.par_sort_unstable_by_key(|(c, i)| (c.to_array(), *i));
     let mut differences: Vec<f32> = filed
         .windows(2)
         .filter_map(|pair| {
