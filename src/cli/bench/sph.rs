@@ -290,3 +290,64 @@ pub fn race(
     std::fs::remove_dir_all(&dir)?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use activeskin::polygonize::mesh_vdb;
+    use activeskin::target::{sample, Sphere};
+
+    /// Spheres moving 5 voxels a frame, their radius off by `wobble` voxels every other
+    /// frame, with particles half a voxel inside the unwobbled surface and 2 voxels
+    /// outside it.
+    fn shot(wobble: f32) -> (Vec<Mesh>, Vec<Vec<Vec3>>) {
+        let dx = 0.02;
+        let (radius, step) = (0.3, Vec3::new(5.0 * dx, 0.0, 0.0));
+        let directions: Vec<Vec3> = (0..400)
+            .map(|k| {
+                let z = 1.0 - 2.0 * (k as f32 + 0.5) / 400.0;
+                let a = k as f32 * 2.399_963;
+                let s = (1.0 - z * z).sqrt();
+                Vec3::new(s * a.cos(), s * a.sin(), z)
+            })
+            .collect();
+        (0..6)
+            .map(|f| {
+                let center = Vec3::splat(1.0) + step * f as f32;
+                let off = if f % 2 == 1 { wobble * dx } else { 0.0 };
+                let sphere = Sphere {
+                    center,
+                    radius: radius + off,
+                };
+                let mesh = mesh_vdb(sample::level_set(&sphere, dx, 3.0), |v| v);
+                let mut cloud: Vec<Vec3> = directions
+                    .iter()
+                    .map(|d| center + *d * (radius - 0.5 * dx))
+                    .collect();
+                cloud.push(center + Vec3::X * (radius + 2.0 * dx));
+                (mesh, cloud)
+            })
+            .unzip()
+    }
+
+    #[test]
+    fn the_measures_see_volume_particles_outside_and_flicker_not_motion() {
+        let dx = 0.02;
+        let (meshes, clouds) = shot(0.0);
+        let steady = measure(&meshes, &clouds, dx, dx).unwrap();
+        // Steady motion of 5 voxels a frame is no noise.
+        assert!(mean(&steady.noise) < 0.02, "{:?}", steady.noise);
+        // One particle of 401 lies 2 voxels out: more than r = 1 voxel.
+        for f in &steady.outside {
+            assert!((f - 1.0 / 401.0).abs() < 1e-9, "{f}");
+        }
+        // Volume against N·(2r)³, as the mesh encloses it.
+        let expected = meshes[0].volume() / (401.0 * f64::from(2.0 * dx).powi(3));
+        assert!((steady.volume[0] - expected).abs() < 1e-9);
+        // A radius off by 0.4 voxel every other frame: the second difference sees 0.4.
+        let (meshes, clouds) = shot(0.4);
+        let wobbly = measure(&meshes, &clouds, dx, dx).unwrap();
+        let noise = mean(&wobbly.noise);
+        assert!((0.3..0.5).contains(&noise), "{:?}", wobbly.noise);
+    }
+}
