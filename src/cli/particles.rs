@@ -7,7 +7,7 @@ use activeskin::skin::AnySkin;
 use std::sync::Arc;
 
 use activeskin::flow::{Flow, FlowMap, Timing};
-use activeskin::target::{fluid_iso, DEFAULT_SMOOTHING_LENGTH};
+use activeskin::target::{fluid_iso, DensityGrid, DEFAULT_SMOOTHING_LENGTH};
 use anyhow::Context;
 
 use super::args::{OutputArgs, PhysicsArgs, VelocityTime};
@@ -125,12 +125,13 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     };
     let range = input.range;
     let duration = (1.0 / args.physics.fps) as f32;
-    // The particles of the frames read last, matched with the next frame's: their motion
+    // The particles of the frame read last, matched with the next frame's: their motion
     // over the frame carries the skin (§7) when the simulation keeps its particles.
-    let mut kept: Vec<(i64, Particles)> = Vec::new();
-    // Each frame is read once: its density is the skin's target and, with
-    // --density-out, written as a fog volume on the way.
-    let mut frame_at = |frame: i64| -> Result<ParticleFrame, FrameError> {
+    let mut last: Option<(i64, Particles)> = None;
+    // Each frame is read once (its density is the skin's target and, with
+    // --density-out, written as a fog volume on the way); the density comes back with
+    // whether it carries the frame's motion.
+    let mut frame_at = |frame: i64| -> Result<(DensityGrid, bool), FrameError> {
         let path = input.pattern.path(frame);
         let exists = |f: i64| input.pattern.is_held() || input.existing.binary_search(&f).is_ok();
         if !exists(frame) {
@@ -139,30 +140,30 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
                 path.display()
             )));
         }
-        let before = match kept.iter().position(|(f, _)| *f == frame - 1) {
-            Some(k) => Some(kept.swap_remove(k).1),
+        let before = match last.take() {
+            Some((f, particles)) if f == frame - 1 => Some(particles),
             // After a resume, or in a chunk: read as an uninterrupted run has it.
-            None if frame > range.0 && exists(frame - 1) => {
+            _ if frame > range.0 && exists(frame - 1) => {
                 Some(activeskin::particles::read(&input.pattern.path(frame - 1))?)
             }
-            None => None,
+            _ => None,
         };
         // A warm-up frame writes nothing, its density neither.
         let reader = match frame < write_from {
             true => &quiet_particles,
             false => &particles,
         };
-        let read = reader.frame(&path, frame, before.as_ref(), duration)?;
-        kept.retain(|(f, _)| *f >= frame - 1);
-        if let Some(before) = before {
-            kept.push((frame - 1, before));
-        }
-        kept.push((frame, read.particles.clone()));
-        Ok(read)
+        let ParticleFrame {
+            density,
+            particles,
+            carried,
+        } = reader.frame(&path, frame, before.as_ref(), duration)?;
+        last = Some((frame, particles));
+        Ok((density, carried))
     };
     // The skin starts on the first frame's density, one solid: the small voids of a
     // density whose kernel barely spans the spacing would each become a skin to remove.
-    let mut first = frame_at(range.0)?.density;
+    let mut first = frame_at(range.0)?.0;
     first.fill_voids(particles.void_volume());
     let skin = AnySkin::new(&first, params);
     // The loop asks for the first frame once more, for its velocity.
@@ -177,8 +178,8 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
             let (density, carried) = match first.take() {
                 Some(grid) if frame == range.0 => (grid, false),
                 _ => {
-                    let read = frame_at(frame)?;
-                    (Arc::new(read.density), read.carried)
+                    let (density, carried) = frame_at(frame)?;
+                    (Arc::new(density), carried)
                 }
             };
             // Particles matched from the frame before carry the skin by their own motion;

@@ -3,6 +3,8 @@
 //! one support h for all particles or one each (from their radii), neighbours found
 //! through a hashed grid of cells of side max h_i.
 
+use std::ops::Range;
+
 use glam::{IVec3, Mat3, Vec3};
 use hashbrown::{HashMap, HashSet};
 use rayon::prelude::*;
@@ -192,57 +194,35 @@ impl Density {
         if self.velocities.is_empty() {
             return self;
         }
-        let cells: Vec<(IVec3, u32, u32)> =
-            self.cells.iter().map(|(&c, &(a, b))| (c, a, b)).collect();
-        let fitted: Vec<(u32, Vec<Mat3>)> = cells
-            .par_iter()
-            .map(|&(cell, start, end)| {
-                let runs: Vec<std::ops::Range<usize>> = AROUND
-                    .iter()
-                    .filter_map(|&d| {
-                        let &(a, b) = self.cells.get(&(cell + d))?;
-                        Some(a as usize..b as usize)
-                    })
-                    .collect();
-                let gradients = (start as usize..end as usize)
-                    .map(|i| {
-                        let (p, inv_h2) = self.particles[i];
-                        let u = self.velocities[i];
-                        // In units of the support, so that the moments are of order 1.
-                        let scale = inv_h2.sqrt();
-                        let (mut moment, mut cross) = (Mat3::ZERO, Mat3::ZERO);
-                        for run in &runs {
-                            for j in run.clone() {
-                                let r = (self.particles[j].0 - p) * scale;
-                                let s = 1.0 - r.length_squared();
-                                if s > 0.0 && j != i {
-                                    let wr = r * (s * s * s);
-                                    moment += outer(wr, r);
-                                    cross += outer(self.velocities[j] - u, wr);
-                                }
-                            }
-                        }
-                        let trace = moment.x_axis.x + moment.y_axis.y + moment.z_axis.z;
-                        if trace <= 1e-6 {
-                            return Mat3::ZERO; // a lone particle moves as a whole
-                        }
-                        let ridge = Mat3::from_diagonal(Vec3::splat(0.01 * trace));
-                        let k = cross * (moment + ridge).inverse() * scale;
-                        if k.is_finite() {
-                            k
-                        } else {
-                            Mat3::ZERO
-                        }
-                    })
-                    .collect();
-                (start, gradients)
-            })
-            .collect();
-        self.gradients = vec![Mat3::ZERO; self.particles.len()];
-        for (start, gradients) in fitted {
-            self.gradients[start as usize..start as usize + gradients.len()]
-                .copy_from_slice(&gradients);
-        }
+        self.gradients = self.per_particle(|i, runs| {
+            let (p, inv_h2) = self.particles[i];
+            let u = self.velocities[i];
+            // In units of the support, so that the moments are of order 1.
+            let scale = inv_h2.sqrt();
+            let (mut moment, mut cross) = (Mat3::ZERO, Mat3::ZERO);
+            for run in runs {
+                for j in run.clone() {
+                    let r = (self.particles[j].0 - p) * scale;
+                    let s = 1.0 - r.length_squared();
+                    if s > 0.0 && j != i {
+                        let wr = r * (s * s * s);
+                        moment += outer(wr, r);
+                        cross += outer(self.velocities[j] - u, wr);
+                    }
+                }
+            }
+            let trace = moment.x_axis.x + moment.y_axis.y + moment.z_axis.z;
+            if trace <= 1e-6 {
+                return Mat3::ZERO; // a lone particle moves as a whole
+            }
+            let ridge = Mat3::from_diagonal(Vec3::splat(0.01 * trace));
+            let k = cross * (moment + ridge).inverse() * scale;
+            if k.is_finite() {
+                k
+            } else {
+                Mat3::ZERO
+            }
+        });
         self
     }
 
@@ -283,44 +263,47 @@ impl Density {
     /// thin sheets and lone particles, whose own density is low, keep a surface (a lone
     /// particle's at about 1.8 r for a smoothing length of 2 and the [`fluid_iso`]).
     pub fn normalized(mut self, rest: f32) -> Self {
-        // Cell by cell, so that the 27 neighbour cells are looked up once per cell, not
-        // once per particle; each sum in the same order as `density`'s.
-        let cells: Vec<(IVec3, u32, u32)> =
+        // Each sum in the same order as `density`'s.
+        self.volumes = self.per_particle(|i, runs| {
+            let p = self.particles[i].0;
+            let mut g = 0.0f32;
+            for run in runs {
+                for &(q, inv_h2) in &self.particles[run.clone()] {
+                    let s = 1.0 - (p - q).length_squared() * inv_h2;
+                    if s > 0.0 {
+                        g += s * s * s;
+                    }
+                }
+            }
+            rest / g.max(1e-6)
+        });
+        self
+    }
+
+    /// `f(i, runs)` for every particle i, in `particles`' order, given the runs of the
+    /// (up to 27) occupied cells around its cell in [`AROUND`]'s order: computed cell by
+    /// cell in parallel, so that the neighbour cells are looked up once per cell, not once
+    /// per particle.
+    fn per_particle<T: Send>(&self, f: impl Fn(usize, &[Range<usize>]) -> T + Sync) -> Vec<T> {
+        let mut cells: Vec<(IVec3, u32, u32)> =
             self.cells.iter().map(|(&c, &(a, b))| (c, a, b)).collect();
-        let own: Vec<(u32, Vec<f32>)> = cells
+        // By run, so that the results come out in `particles`' order.
+        cells.sort_unstable_by_key(|&(_, start, _)| start);
+        cells
             .par_iter()
-            .map(|&(cell, start, end)| {
-                let runs: Vec<&[(Vec3, f32)]> = AROUND
+            .flat_map_iter(|&(cell, start, end)| {
+                let runs: Vec<Range<usize>> = AROUND
                     .iter()
                     .filter_map(|&d| {
                         let &(a, b) = self.cells.get(&(cell + d))?;
-                        Some(&self.particles[a as usize..b as usize])
+                        Some(a as usize..b as usize)
                     })
                     .collect();
-                let sums = self.particles[start as usize..end as usize]
-                    .iter()
-                    .map(|&(p, _)| {
-                        let mut g = 0.0f32;
-                        for run in &runs {
-                            for &(q, inv_h2) in *run {
-                                let s = 1.0 - (p - q).length_squared() * inv_h2;
-                                if s > 0.0 {
-                                    g += s * s * s;
-                                }
-                            }
-                        }
-                        g
-                    })
-                    .collect();
-                (start, sums)
+                (start as usize..end as usize)
+                    .map(|i| f(i, &runs))
+                    .collect::<Vec<T>>()
             })
-            .collect();
-        for (start, sums) in own {
-            for (k, g) in sums.into_iter().enumerate() {
-                self.volumes[start as usize + k] = rest / g.max(1e-6);
-            }
-        }
-        self
+            .collect()
     }
 }
 

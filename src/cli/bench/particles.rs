@@ -1,6 +1,7 @@
 //! `activeskin bench --particles`: activeskin and splashsurf, the particle surfacer users
-//! know, on the same clouds in one run: a real liquid in motion (`sph.rs`), then both as whole processes with the machine's threads
-//! at the same cell size (the particle radius): time per frame on jittered balls of 100 k
+//! know, on the same clouds in one run: a real liquid in motion (`sph.rs`), then, both as
+//! whole processes with the machine's threads at the same cell size (the particle
+//! radius), time per frame on jittered balls of 100 k
 //! and 1 M particles; on a jittered fluid at rest, each one's distance to the fluid's true
 //! surface and its flicker. splashsurf runs at its usual settings (`-l 2 -c 1 -t 0.6`),
 //! activeskin at its defaults.
@@ -178,13 +179,8 @@ pub fn run(
         }
     };
     let root = std::env::temp_dir().join(format!("activeskin-bench-{}", std::process::id()));
-    let result = super::sph::race(&root, splashsurf.as_deref(), lines, report).and_then(|()| {
-        if std::env::var_os("SPH_ONLY").is_some() {
-            Ok(())
-        } else {
-            races(&root, splashsurf.as_deref(), lines, report)
-        }
-    });
+    let result = super::sph::race(&root, splashsurf.as_deref(), lines, report)
+        .and_then(|()| races(&root, splashsurf.as_deref(), lines, report));
     // The clouds and meshes are large: never left behind.
     let _ = std::fs::remove_dir_all(&root);
     result

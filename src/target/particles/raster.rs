@@ -471,28 +471,10 @@ impl Target for DensityGrid {
     }
 }
 
-/// The particles' velocity: their kernel-weighted mean (Shepard), Σ W·v / Σ W, with the
-/// density's own kernel; zero where no particle reaches.
-impl Flow for DensityGrid {
-    fn velocity(&self, p: Vec3) -> Vec3 {
-        let [g, mx, my, mz] = self.interpolate(p, |b, o| match &b.momentum {
-            Some(m) => [b.field[0][o], m[0][o], m[1][o], m[2][o]],
-            None => EMPTY,
-        });
-        if g > 1e-6 {
-            Vec3::new(mx, my, mz) / g
-        } else {
-            Vec3::ZERO
-        }
-    }
-}
-
-/// The particles' motion over a frame when their velocities are that frame's mean (each
-/// particle's displacement from the frame before, per second: [`super::frame_velocities`]):
-/// the material at p was at p − Δt·u(p), u the kernel-weighted mean; no material where no
-/// particle reaches.
-impl FlowMap for DensityGrid {
-    fn departure(&self, p: Vec3, duration: f32) -> Option<Vec3> {
+impl DensityGrid {
+    /// The particles' kernel-weighted mean velocity at `p` (Shepard, Σ W·v / Σ W, with the
+    /// density's own kernel); `None` where no particle reaches or none carries a velocity.
+    fn mean_velocity(&self, p: Vec3) -> Option<Vec3> {
         if !self.velocities {
             return None;
         }
@@ -500,7 +482,24 @@ impl FlowMap for DensityGrid {
             Some(m) => [b.field[0][o], m[0][o], m[1][o], m[2][o]],
             None => EMPTY,
         });
-        (g > 1e-6).then(|| p - Vec3::new(mx, my, mz) / g * duration)
+        (g > 1e-6).then(|| Vec3::new(mx, my, mz) / g)
+    }
+}
+
+/// The particles' velocity: their kernel-weighted mean; zero where no particle reaches.
+impl Flow for DensityGrid {
+    fn velocity(&self, p: Vec3) -> Vec3 {
+        self.mean_velocity(p).unwrap_or(Vec3::ZERO)
+    }
+}
+
+/// The particles' motion over a frame when their velocities are that frame's mean (each
+/// particle's displacement from the frame before, per second:
+/// [`crate::particles::motion::frame_velocities`]): the material at p was at p − Δt·u(p);
+/// no material where no particle reaches.
+impl FlowMap for DensityGrid {
+    fn departure(&self, p: Vec3, duration: f32) -> Option<Vec3> {
+        self.mean_velocity(p).map(|u| p - u * duration)
     }
     fn bounds(&self) -> Aabb {
         self.bounds
