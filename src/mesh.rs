@@ -11,6 +11,7 @@ mod check;
 mod nearest;
 
 pub use check::MeshCheck;
+pub(crate) use nearest::point_triangle_distance;
 pub use nearest::{hausdorff, mean_distance, TriangleIndex};
 
 #[derive(Debug, Clone, Default)]
@@ -149,27 +150,24 @@ impl Mesh {
     /// Wavefront OBJ with normals, through a temporary file renamed into place. The text
     /// is formatted in parallel chunks, then written in order.
     pub fn write_obj(&self, path: &Path) -> Result<(), MeshError> {
-        use std::fmt::Write as _;
         const CHUNK: usize = 1 << 16;
-        let vertices = self.positions.par_chunks(CHUNK).map(|chunk| {
-            let mut s = String::with_capacity(chunk.len() * 40);
-            for p in chunk {
-                let _ = writeln!(s, "v {} {} {}", p.x, p.y, p.z);
-            }
-            s
-        });
-        let normals = self.normals.par_chunks(CHUNK).map(|chunk| {
-            let mut s = String::with_capacity(chunk.len() * 40);
-            for n in chunk {
-                let _ = writeln!(s, "vn {} {} {}", n.x, n.y, n.z);
-            }
-            s
-        });
+        // ryu and itoa: shortest round-trip text, several times faster than `Display`
+        // (the OBJ was a tenth of a particle frame's time).
+        let vertices = obj_vectors("v", &self.positions, CHUNK);
+        let normals = obj_vectors("vn", &self.normals, CHUNK);
         let faces = self.triangles.par_chunks(CHUNK).map(|chunk| {
             let mut s = String::with_capacity(chunk.len() * 40);
+            let mut buffer = itoa::Buffer::new();
             for t in chunk {
-                let [a, b, c] = t.map(|i| i + 1);
-                let _ = writeln!(s, "f {a}//{a} {b}//{b} {c}//{c}");
+                s.push('f');
+                for i in t.map(|i| i + 1) {
+                    let i = buffer.format(i);
+                    s.push(' ');
+                    s.push_str(i);
+                    s.push_str("//");
+                    s.push_str(i);
+                }
+                s.push('\n');
             }
             s
         });
@@ -291,6 +289,27 @@ impl Mesh {
             message,
         })
     }
+}
+
+/// OBJ records `tag x y z`, one per item, `chunk` items to a string, in parallel.
+fn obj_vectors<'a>(
+    tag: &'static str,
+    items: &'a [Vec3],
+    chunk: usize,
+) -> impl IndexedParallelIterator<Item = String> + 'a {
+    items.par_chunks(chunk).map(move |chunk| {
+        let mut s = String::with_capacity(chunk.len() * 40);
+        let mut buffer = ryu::Buffer::new();
+        for p in chunk {
+            s.push_str(tag);
+            for v in [p.x, p.y, p.z] {
+                s.push(' ');
+                s.push_str(buffer.format(v));
+            }
+            s.push('\n');
+        }
+        s
+    })
 }
 
 /// Writes `items` as fixed-size binary records of `size` bytes, each laid out by `record`

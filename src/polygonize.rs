@@ -322,6 +322,39 @@ fn cube_triangles(
     );
 }
 
+/// Distance (voxels) from local node `l` of `halo` to the triangles the polygonizer cuts
+/// in the eight cells around it, vertices clamped as the mesh's are; infinite when none
+/// is crossed. Within a voxel of the node the mesh lies in those cells, so whenever it
+/// comes that near this is its exact distance — found from the halo alone, with no
+/// index of the mesh.
+pub(crate) fn distance_in_cells_around(halo: &Halo, l: IVec3) -> f32 {
+    let p = l.as_vec3();
+    let value = |m: IVec3| halo.at(m.x, m.y, m.z);
+    let mut best = f32::INFINITY;
+    for c in 0..8 {
+        let cell = l - IVec3::ONE + corner_offset(c);
+        let signs = (0..8).fold(0u8, |s, k| {
+            s | u8::from(inside(value(cell + corner_offset(k)))) << k
+        });
+        if signs == 0 || signs == 0xFF {
+            continue;
+        }
+        let vertex = |e: u8| {
+            let (a, _) = EDGE_CORNERS[e as usize];
+            let along = IVec3::AXES[edge_axis(e as usize)];
+            let from = cell + corner_offset(a);
+            let (fa, fb) = (value(from), value(from + along));
+            let t = (fa / (fa - fb)).clamp(VERTEX_MARGIN, 1.0 - VERTEX_MARGIN);
+            from.as_vec3() + along.as_vec3() * t
+        };
+        for t in cases::table()[signs as usize].triangles() {
+            let [a, b, c] = t.map(vertex);
+            best = best.min(crate::mesh::point_triangle_distance(p, a, b, c));
+        }
+    }
+    best
+}
+
 /// Meshes a grid copied from VDB, `value` mapping its values into [-1, 1] with the surface
 /// at 0 and negative inside: cut in world space when the voxels are the world's axes
 /// scaled, else in index space and then carried by the grid's full transform.
@@ -441,6 +474,51 @@ mod tests {
     use crate::grid::offset_coords;
     use crate::grid::{Fixed16, BLOCK_NODES};
     use hashbrown::HashMap;
+
+    #[test]
+    fn distance_in_cells_around_is_the_mesh_distance_within_a_voxel() {
+        use crate::target::{sample, Sphere, Target};
+        let dx = 0.05;
+        let sphere = Sphere {
+            center: Vec3::new(0.013, -0.021, 0.007),
+            radius: 0.41,
+        };
+        let data = sample::level_set(&sphere, dx, 3.0);
+        let mut grid = SparseGrid::<f32>::new();
+        grid.import(&data, |v| v);
+        let mesh = mesh_vdb(data, |v| v);
+        let brute = |p: Vec3| {
+            mesh.triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|v| mesh.positions[v as usize] / dx);
+                    crate::mesh::point_triangle_distance(p, a, b, c)
+                })
+                .fold(f32::INFINITY, f32::min)
+        };
+        let mut halo = Box::<Halo>::default();
+        let mut checked = 0;
+        for block in grid.blocks() {
+            halo.gather(&grid, block);
+            for offset in 0..BLOCK_NODES {
+                let l = offset_coords(offset);
+                let ijk = block.coord * BLOCK_DIM + l;
+                if sphere.distance(ijk.as_vec3() * dx).abs() > 1.5 * dx {
+                    continue;
+                }
+                let exact = brute(ijk.as_vec3());
+                if exact < 1.0 {
+                    let found = distance_in_cells_around(&halo, l);
+                    assert!(
+                        (found - exact).abs() < 1e-4,
+                        "{ijk}: {found} against {exact}"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 1000, "{checked}");
+    }
 
     /// A repeatable rough potential on nodes `lo..hi`: a wavy field a third of a voxel
     /// steep, plus noise, in steps of 1/16 (so many nodes sit at exactly 0), +1 outside.

@@ -44,6 +44,11 @@ pub trait Target: Sync {
     fn distance(&self, p: Vec3) -> f32;
     /// A box holding the whole inside of the target.
     fn bounds(&self) -> Aabb;
+    /// False only when no point of `region` is inside the target, so that a seed can skip
+    /// it without sampling it.
+    fn may_be_inside(&self, _region: Aabb) -> bool {
+        true
+    }
 }
 
 impl<T: Target + ?Sized> Target for &T {
@@ -52,6 +57,9 @@ impl<T: Target + ?Sized> Target for &T {
     }
     fn bounds(&self) -> Aabb {
         (**self).bounds()
+    }
+    fn may_be_inside(&self, region: Aabb) -> bool {
+        (**self).may_be_inside(region)
     }
 }
 
@@ -62,6 +70,9 @@ impl<T: Target + ?Sized + Send> Target for std::sync::Arc<T> {
     fn bounds(&self) -> Aabb {
         (**self).bounds()
     }
+    fn may_be_inside(&self, region: Aabb) -> bool {
+        (**self).may_be_inside(region)
+    }
 }
 
 impl<T: Target + ?Sized> Target for Box<T> {
@@ -70,6 +81,9 @@ impl<T: Target + ?Sized> Target for Box<T> {
     }
     fn bounds(&self) -> Aabb {
         (**self).bounds()
+    }
+    fn may_be_inside(&self, region: Aabb) -> bool {
+        (**self).may_be_inside(region)
     }
 }
 

@@ -299,21 +299,21 @@ impl ParticleInput {
                 Density::with_supports(cloud.positions.clone(), supports, self.iso)
             }
             _ => Density::new(cloud.positions.clone(), support * self.radius, self.iso),
-        }
-        .normalized(rest_density(self.smoothing_length));
+        };
         let h = support * self.radius;
         let motion = match (before, self.velocity_scale) {
             (Some(before), Some(k)) => frame_velocities(before, &cloud, duration, Some(k), h),
             _ => None,
         };
         let carried = motion.is_some();
+        let rest = rest_density(self.smoothing_length);
         let density = match (motion, &cloud.velocities, self.velocity_scale) {
-            (Some(u), ..) => density.with_velocities(&u).with_velocity_gradients(),
+            (Some(u), ..) => density.with_velocities(&u).normalized_with_gradients(rest),
             (None, Some(v), Some(k)) => {
                 let scaled: Vec<Vec3> = v.iter().map(|&u| u * k).collect();
-                density.with_velocities(&scaled)
+                density.normalized(rest).with_velocities(&scaled)
             }
-            _ => density,
+            _ => density.normalized(rest),
         };
         let grid = DensityGrid::rasterize(&density, self.dx);
         if let Some(out) = &self.density_out {

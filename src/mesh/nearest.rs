@@ -1,5 +1,5 @@
 //! Nearest-triangle queries through a hashed grid of cells: distances from points to a
-//! mesh, for the Hausdorff comparison and for re-distancing the exported level set.
+//! mesh, for the Hausdorff comparison.
 
 use std::ops::Range;
 
@@ -78,13 +78,6 @@ impl TriangleIndex {
         )
     }
 
-    /// Distance from `p` to the mesh when it is at most `radius` (only the cells that
-    /// ball touches are searched); otherwise some larger value, or infinity.
-    pub(crate) fn distance_within(&self, p: Vec3, radius: f32) -> f32 {
-        let r = Vec3::splat(radius);
-        self.nearest_in(self.key(p - r) - self.extent, self.key(p + r), p)
-    }
-
     fn nearest_in(&self, lo: IVec3, hi: IVec3, p: Vec3) -> f32 {
         let mut best = f32::INFINITY;
         for x in lo.x..=hi.x {
@@ -104,7 +97,7 @@ impl TriangleIndex {
 }
 
 /// Distance from `p` to triangle `abc` (Ericson, Real-Time Collision Detection, 5.1.5).
-fn point_triangle_distance(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
+pub(crate) fn point_triangle_distance(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
     let (ab, ac, ap) = (b - a, c - a, p - a);
     let (d1, d2) = (ab.dot(ap), ac.dot(ap));
     if d1 <= 0.0 && d2 <= 0.0 {
@@ -196,11 +189,6 @@ mod tests {
                     point_triangle_distance(p, a, b, c)
                 })
                 .fold(f32::INFINITY, f32::min);
-            let radius = next() * 2.0;
-            let found = index.distance_within(p, radius);
-            if exact <= radius {
-                assert_eq!(found, exact, "{p}");
-            }
             if exact <= 1.0 {
                 assert_eq!(index.distance(p, 1), exact, "{p}");
             }

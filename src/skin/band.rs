@@ -6,8 +6,8 @@ use glam::IVec3;
 use rayon::prelude::*;
 
 use crate::grid::{
-    mask_offsets, node_offset, offset_coords, Block, Halo, Potential, SparseGrid, AROUND,
-    BLOCK_DIM, BLOCK_NODES,
+    bits, mask_offsets, node_offset, offset_coords, Block, Halo, Potential, SparseGrid, AROUND,
+    BLOCK_DIM, BLOCK_NODES, HALO_DIM,
 };
 
 /// One Jacobi sweep of the Godunov upwind scheme for |∇f| = 1/w, over active nodes not
@@ -63,17 +63,17 @@ pub(crate) fn renormalizing(
 }
 
 /// Makes the potential a signed distance next to the skin, for export: each node with an
-/// edge crossing takes `distance(node, bound)` (voxels: its exact distance to the skin's
-/// mesh, at most `bound`, its nearest crossing) with its sign. The nodes farther out
+/// edge crossing takes `distance(halo, local node, bound)` (voxels: its exact distance to
+/// the skin's mesh, at most `bound`, its nearest crossing) with its sign. The nodes farther out
 /// already hold the renormalised distance from these. The skin moves by second-order
 /// terms only: on an edge crossed at t, distances t·c and (1−t)·c keep the crossing at t.
 pub(crate) fn redistance<P: Potential>(
     grid: &mut SparseGrid<P>,
     band_width: f32,
-    distance: impl Fn(IVec3, f32) -> f32 + Sync,
+    distance: impl Fn(&Halo, IVec3, f32) -> f32 + Sync,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
 ) {
-    sweep(grid, scratch, |halo, l, ijk, f| {
+    sweep(grid, scratch, |halo, l, _, f| {
         let mut bound = f32::INFINITY;
         for e in IVec3::AXES {
             for n in [l - e, l + e] {
@@ -86,7 +86,7 @@ pub(crate) fn redistance<P: Potential>(
         if bound > 1.0 {
             return f; // not next to the skin
         }
-        let d = (distance(ijk, bound) / band_width).min(1.0);
+        let d = (distance(halo, l, bound) / band_width).min(1.0);
         if d.is_finite() {
             f.signum() * d
         } else {
@@ -210,26 +210,32 @@ pub(crate) fn clamp_at_crossings<P: Potential>(
     band_width: f32,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
 ) {
-    sweep_nodes(grid, scratch, true, |halo, l, _, f| {
-        let mut bound = f32::INFINITY;
-        for e in IVec3::AXES {
-            for n in [l - e, l + e] {
-                let g = halo.at(n.x, n.y, n.z);
-                if (g < 0.0) != (f < 0.0) {
-                    bound = bound.min(f / (f - g) / band_width);
+    each_halo(grid, scratch, |halo, _, out| {
+        let signs = SignRows::of(halo);
+        for x in 0..BLOCK_DIM {
+            for y in 0..BLOCK_DIM {
+                let start = node_offset(x, y, 0);
+                let row = Halo::index(x, y, 0);
+                out[start..start + 8].copy_from_slice(&halo.values[row..row + 8]);
+                // Only nodes with a node of the other sign among their 26 change.
+                for z in bits(u16::from(signs.mixed_around(x, y))) {
+                    let l = IVec3::new(x, y, z);
+                    let f = halo.at(x, y, z);
+                    let mut bound = BAND_CORNER;
+                    for e in IVec3::AXES {
+                        for n in [l - e, l + e] {
+                            let g = halo.at(n.x, n.y, n.z);
+                            if (g < 0.0) != (f < 0.0) {
+                                bound = bound.min(f / (f - g) / band_width);
+                            }
+                        }
+                    }
+                    out[node_offset(x, y, z)] = f.signum() * f.abs().min(bound);
                 }
             }
         }
-        // Any node within one node (26 neighbours) of the other sign shares a cell with it.
-        let corner = AROUND.iter().any(|&d| {
-            let m = l + d;
-            (halo.at(m.x, m.y, m.z) < 0.0) != (f < 0.0)
-        });
-        if corner {
-            bound = bound.min(BAND_CORNER);
-        }
-        f.signum() * f.abs().min(bound)
     });
+    write_back(grid, scratch, true);
 }
 
 /// The largest |f| a corner of a crossed cell starts with: inside the band.
@@ -242,33 +248,32 @@ pub(crate) fn unstored_crossed<P: Potential>(grid: &SparseGrid<P>) -> Vec<IVec3>
         .blocks()
         .par_iter()
         .map_init(Box::<Halo>::default, |halo, block| {
-            halo.gather(grid, block);
             let mut out = Vec::new();
+            // A block whose 26 neighbours are stored has no cell reading an unstored one.
+            if AROUND.iter().all(|&d| grid.find(block.coord + d).is_some()) {
+                return out;
+            }
+            halo.gather(grid, block);
+            let signs = SignRows::of(halo);
             for x in -1..BLOCK_DIM {
                 for y in -1..BLOCK_DIM {
-                    for z in -1..BLOCK_DIM {
-                        let cell = IVec3::new(x, y, z);
+                    for k in bits(signs.crossed_cells(x, y)) {
+                        let cell = IVec3::new(x, y, k - 1);
                         let interior = cell.cmpge(IVec3::ZERO).all()
                             && cell.cmplt(IVec3::splat(BLOCK_DIM - 1)).all();
                         if interior {
                             continue;
                         }
-                        let corners =
-                            (0..8).map(|c| cell + IVec3::new(c >> 2, (c >> 1) & 1, c & 1));
-                        let signs = corners.clone().map(|m| halo.at(m.x, m.y, m.z) < 0.0);
-                        let (inside, outside) =
-                            signs.fold((false, false), |(a, b), s| (a || s, b || !s));
-                        if inside && outside {
-                            for m in corners {
-                                let b = block.coord
-                                    + IVec3::new(
-                                        m.x.div_euclid(BLOCK_DIM),
-                                        m.y.div_euclid(BLOCK_DIM),
-                                        m.z.div_euclid(BLOCK_DIM),
-                                    );
-                                if grid.find(b).is_none() {
-                                    out.push(b);
-                                }
+                        for c in 0..8 {
+                            let m = cell + IVec3::new(c >> 2, (c >> 1) & 1, c & 1);
+                            let b = block.coord
+                                + IVec3::new(
+                                    m.x.div_euclid(BLOCK_DIM),
+                                    m.y.div_euclid(BLOCK_DIM),
+                                    m.z.div_euclid(BLOCK_DIM),
+                                );
+                            if grid.find(b).is_none() {
+                                out.push(b);
                             }
                         }
                     }
@@ -281,6 +286,61 @@ pub(crate) fn unstored_crossed<P: Potential>(grid: &SparseGrid<P>) -> Vec<IVec3>
     missing.sort_unstable_by_key(|c| c.to_array());
     missing.dedup();
     missing
+}
+
+/// Which nodes of a halo are inside (f < 0), a row along z at a time: bit z + 1 for
+/// local z in -1..=8.
+struct SignRows([[u16; HALO_DIM]; HALO_DIM]);
+
+impl SignRows {
+    fn of(halo: &Halo) -> Self {
+        let mut rows = [[0u16; HALO_DIM]; HALO_DIM];
+        for (hx, plane) in rows.iter_mut().enumerate() {
+            for (hy, row) in plane.iter_mut().enumerate() {
+                let start = Halo::index(hx as i32 - 1, hy as i32 - 1, -1);
+                *row = halo.values[start..start + HALO_DIM]
+                    .iter()
+                    .enumerate()
+                    .fold(0, |b, (k, &v)| b | u16::from(v < 0.0) << k);
+            }
+        }
+        SignRows(rows)
+    }
+
+    #[inline]
+    fn at(&self, x: i32, y: i32) -> u16 {
+        self.0[(x + 1) as usize][(y + 1) as usize]
+    }
+
+    /// Bit z (local z in 0..8): node (x, y, z) has a node of each sign among itself and
+    /// its 26 neighbours (x, y in 0..8).
+    fn mixed_around(&self, x: i32, y: i32) -> u8 {
+        let (mut any, mut all) = (0u16, 0x3FFu16);
+        for a in x - 1..=x + 1 {
+            for b in y - 1..=y + 1 {
+                let r = self.at(a, b);
+                any |= r | r << 1 | r >> 1;
+                all &= r & (r << 1 | 1) & (r >> 1 | 0x200);
+            }
+        }
+        ((any & !all) >> 1) as u8
+    }
+
+    /// Bit z + 1 (local z in -1..8): the cell with lower corner (x, y, z) has corners of
+    /// both signs (x, y in -1..8).
+    fn crossed_cells(&self, x: i32, y: i32) -> u16 {
+        let (r0, r1, r2, r3) = (
+            self.at(x, y),
+            self.at(x + 1, y),
+            self.at(x, y + 1),
+            self.at(x + 1, y + 1),
+        );
+        let any = r0 | r1 | r2 | r3;
+        let all = r0 & r1 & r2 & r3;
+        // Cell z spans bits z + 1 and z + 2.
+        let (any, all) = (any | any >> 1, all & all >> 1);
+        (any & !all) & 0x1FF
+    }
 }
 
 /// Sets every node of the blocks to `value(global node)`, clamped; used to start a skin.

@@ -10,6 +10,7 @@ use rayon::prelude::*;
 use super::advect::cubic_weights;
 use super::{band, Skin};
 use crate::flow::FlowMap;
+use crate::grid::tube::Reach;
 use crate::grid::{
     block_of, node_offset, offset_coords, Potential, SparseGrid, AROUND, BLOCK_DIM, BLOCK_NODES,
 };
@@ -23,6 +24,12 @@ fn tricubic(at: impl Fn(IVec3) -> f32, u: Vec3) -> f32 {
     let base = u.floor();
     let t = u - base;
     let base = base.as_ivec3();
+    // A cell of one value (most of the tube's outer nodes, at ±1) limits the cubic to it:
+    // its 56 other taps need not be read.
+    let first = at(base);
+    if (1..8).all(|k| at(base + IVec3::new(k >> 2, (k >> 1) & 1, k & 1)) == first) {
+        return first;
+    }
     let (wx, wy, wz) = (cubic_weights(t.x), cubic_weights(t.y), cubic_weights(t.z));
     let mut value = 0.0;
     let (mut low, mut high) = (f32::INFINITY, f32::NEG_INFINITY);
@@ -253,15 +260,19 @@ impl<P: Potential> Skin<P> {
         }
         drop(old);
         band::clamp_at_crossings(&mut grid, w, &mut self.rates);
-        crate::grid::tube::upkeep(&mut grid);
+        // A flow stretches and squeezes the distance it carries: made a distance again by
+        // one sweep run with the tube's upkeep (from the same halos), the nodes within 1.5
+        // voxels of the skin kept as carried, as the advection's are (measured on the
+        // flow-map tests before the volume was kept: sphere gliding 8 frames −0.15 %
+        // volume, Zalesak one turn −0.26 %; with those nodes redistanced −0.56 / −0.62 %;
+        // no sweep −0.04 / −0.85 %).
+        let wake = crate::grid::tube::wake_list(&grid);
+        let sweep = crate::grid::tube::Sweep {
+            update: band::renormalizing(w, 1.5 / w),
+            scratch: &mut self.rates,
+        };
+        crate::grid::tube::upkeep_from(&mut grid, Reach::Faces, &wake, Some(sweep));
         self.grid = grid;
-        // A flow stretches and squeezes the distance it carries: made a distance again,
-        // the nodes within 1.5 voxels of the skin kept as carried, as the advection's are
-        // (measured on the flow-map tests before the volume was kept, one sweep: sphere
-        // gliding 8 frames −0.15 % volume, Zalesak one turn −0.26 %; with those nodes
-        // redistanced −0.56 / −0.62 %; no sweep −0.04 / −0.85 %).
-        band::renormalize(&mut self.grid, w, 1.5 / w, &mut self.rates);
-        crate::grid::tube::upkeep(&mut self.grid);
         self.polygonize();
         self.keep_volume(volume);
     }
@@ -292,7 +303,8 @@ impl<P: Potential> Skin<P> {
                 }
             }
         });
-        crate::grid::tube::upkeep(&mut self.grid);
+        // The shift is a fraction of a voxel and the band reaches w voxels past the skin:
+        // the tube is kept until the attraction's upkeep.
         self.polygonize();
     }
 }

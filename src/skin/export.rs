@@ -5,27 +5,25 @@ use glam::IVec3;
 
 use super::{band, Skin, SkinError};
 use crate::grid::{Potential, BLOCK_DIM, BLOCK_NODES};
-use crate::mesh::TriangleIndex;
+use crate::polygonize::distance_in_cells_around;
 use crate::volume::{GridClass, GridData, Tile, Transform, MASK_WORDS};
 
 impl<P: Potential> Skin<P> {
     /// The skin as a narrow-band level set: signed distance φ = f·wΔx in world units,
     /// active where |φ| < wΔx, background wΔx, inside tiles at −wΔx (grid `surface`).
-    /// The nodes next to the skin are re-distanced from its mesh first: the solver keeps
-    /// their values (they define the skin), which are not a distance in a thin neck, where
+    /// The nodes next to the skin are re-distanced from its mesh first (the triangles of
+    /// the cells around each, cut again from the grid): the solver keeps their values
+    /// (they define the skin), which are not a distance in a thin neck, where
     /// checkLevelSet would flag them.
     pub fn to_level_set(&self) -> GridData {
         let dx = self.params.dx;
         let w = self.params.band_width;
         let background = self.background();
         let mut grid = self.grid.clone();
-        let index = TriangleIndex::new(&self.mesh, dx);
         band::redistance(
             &mut grid,
             w,
-            |ijk, bound| {
-                index.distance_within(self.xf.apply(ijk.as_vec3()), 1.001 * bound * dx) / dx
-            },
+            |halo, l, bound| distance_in_cells_around(halo, l).min(bound),
             &mut Vec::new(),
         );
         let origin = self.xf.origin.as_dvec3().to_array();

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use super::Skin;
 use crate::grid::{offset_coords, Potential, AROUND, BLOCK_DIM, BLOCK_NODES};
 use crate::polygonize::IndexToWorld;
-use crate::target::Target;
+use crate::target::{Aabb, Target};
 
 /// How far from a block's centre the target's surface may be for the block to hold part
 /// of the band: its half-diagonal, the band and a voxel.
@@ -25,6 +25,14 @@ pub(super) fn classify_blocks(
     xf: IndexToWorld,
     band_width: f32,
 ) -> Vec<(IVec3, f32)> {
+    target_blocks(target, xf, band_width)
+        .into_par_iter()
+        .map(|c| (c, block_centre_distance(target, xf, c)))
+        .collect()
+}
+
+/// The blocks of `target`'s bounds, padded by the band and one block.
+fn target_blocks(target: &dyn Target, xf: IndexToWorld, band_width: f32) -> Vec<IVec3> {
     let dx = xf.dx;
     let bounds = target.bounds().padded((band_width + 2.0) * dx);
     let lo = ((bounds.min - xf.origin) / (dx * BLOCK_DIM as f32))
@@ -35,18 +43,16 @@ pub(super) fn classify_blocks(
         .ceil()
         .as_ivec3()
         + IVec3::ONE;
-    let coords: Vec<IVec3> = (lo.x..=hi.x)
+    (lo.x..=hi.x)
         .flat_map(|x| {
             (lo.y..=hi.y).flat_map(move |y| (lo.z..=hi.z).map(move |z| IVec3::new(x, y, z)))
         })
-        .collect();
-    coords
-        .par_iter()
-        .map(|&c| {
-            let centre = xf.apply((c * BLOCK_DIM).as_vec3() + Vec3::splat(3.5));
-            (c, target.distance(centre))
-        })
         .collect()
+}
+
+/// The target's distance at the centre of block `c`.
+fn block_centre_distance(target: &dyn Target, xf: IndexToWorld, c: IVec3) -> f32 {
+    target.distance(xf.apply((c * BLOCK_DIM).as_vec3() + Vec3::splat(3.5)))
 }
 
 impl<P: Potential> Skin<P> {
@@ -71,10 +77,19 @@ impl<P: Potential> Skin<P> {
             .collect();
         let near_skin = |c: IVec3| AROUND.iter().any(|&d| occupied.contains(&(c + d)));
         let xf = self.xf;
-        let wanted: Vec<(IVec3, Box<[f32; BLOCK_NODES]>)> = classify_blocks(target, xf, w)
+        let wanted: Vec<(IVec3, Box<[f32; BLOCK_NODES]>)> = target_blocks(target, xf, w)
             .into_par_iter()
-            .filter(|&(c, d)| d <= reach && !near_skin(c))
-            .filter_map(|(c, _)| {
+            .filter(|&c| {
+                let corner = |k: i32| xf.apply((c * BLOCK_DIM + IVec3::splat(k)).as_vec3());
+                let region = Aabb {
+                    min: corner(0),
+                    max: corner(BLOCK_DIM - 1),
+                };
+                !near_skin(c)
+                    && target.may_be_inside(region)
+                    && block_centre_distance(target, xf, c) <= reach
+            })
+            .filter_map(|c| {
                 let base = c * BLOCK_DIM;
                 let mut values = Box::new([0.0f32; BLOCK_NODES]);
                 let mut material = false;

@@ -195,34 +195,40 @@ impl Density {
             return self;
         }
         self.gradients = self.per_particle(|i, runs| {
-            let (p, inv_h2) = self.particles[i];
-            let u = self.velocities[i];
-            // In units of the support, so that the moments are of order 1.
-            let scale = inv_h2.sqrt();
-            let (mut moment, mut cross) = (Mat3::ZERO, Mat3::ZERO);
+            let mut fit = GradientFit::new(&self, i);
             for run in runs {
                 for j in run.clone() {
-                    let r = (self.particles[j].0 - p) * scale;
-                    let s = 1.0 - r.length_squared();
-                    if s > 0.0 && j != i {
-                        let wr = r * (s * s * s);
-                        moment += outer(wr, r);
-                        cross += outer(self.velocities[j] - u, wr);
-                    }
+                    fit.add(&self, j);
                 }
             }
-            let trace = moment.x_axis.x + moment.y_axis.y + moment.z_axis.z;
-            if trace <= 1e-6 {
-                return Mat3::ZERO; // a lone particle moves as a whole
-            }
-            let ridge = Mat3::from_diagonal(Vec3::splat(0.01 * trace));
-            let k = cross * (moment + ridge).inverse() * scale;
-            if k.is_finite() {
-                k
-            } else {
-                Mat3::ZERO
-            }
+            fit.gradient()
         });
+        self
+    }
+
+    /// [`Density::normalized`] and [`Density::with_velocity_gradients`] in one pass over
+    /// the neighbours (the same sums, in the same order).
+    pub fn normalized_with_gradients(mut self, rest: f32) -> Self {
+        if self.velocities.is_empty() {
+            return self.normalized(rest);
+        }
+        let both = self.per_particle(|i, runs| {
+            let p = self.particles[i].0;
+            let mut g = 0.0f32;
+            let mut fit = GradientFit::new(&self, i);
+            for run in runs {
+                for j in run.clone() {
+                    let (q, inv_h2) = self.particles[j];
+                    let s = 1.0 - (p - q).length_squared() * inv_h2;
+                    if s > 0.0 {
+                        g += s * s * s;
+                    }
+                    fit.add(&self, j);
+                }
+            }
+            (rest / g.max(1e-6), fit.gradient())
+        });
+        (self.volumes, self.gradients) = both.into_iter().unzip();
         self
     }
 
@@ -351,6 +357,60 @@ impl Density {
             data.push_leaf(origin.to_array(), &values, mask);
         }
         data
+    }
+}
+
+/// The weighted least-squares sums of one particle's velocity gradient
+/// ([`Density::with_velocity_gradients`]), in units of its support so that the moments
+/// are of order 1.
+struct GradientFit {
+    i: usize,
+    p: Vec3,
+    u: Vec3,
+    scale: f32,
+    moment: Mat3,
+    cross: Mat3,
+}
+
+impl GradientFit {
+    fn new(density: &Density, i: usize) -> Self {
+        let (p, inv_h2) = density.particles[i];
+        GradientFit {
+            i,
+            p,
+            u: density.velocities[i],
+            scale: inv_h2.sqrt(),
+            moment: Mat3::ZERO,
+            cross: Mat3::ZERO,
+        }
+    }
+
+    /// Adds particle `j`, when a neighbour.
+    #[inline]
+    fn add(&mut self, density: &Density, j: usize) {
+        let r = (density.particles[j].0 - self.p) * self.scale;
+        let s = 1.0 - r.length_squared();
+        if s > 0.0 && j != self.i {
+            let wr = r * (s * s * s);
+            self.moment += outer(wr, r);
+            self.cross += outer(density.velocities[j] - self.u, wr);
+        }
+    }
+
+    /// K_i, ridge-regularised where the neighbours span fewer than three dimensions (a
+    /// sheet); zero for a lone particle, which moves as a whole.
+    fn gradient(&self) -> Mat3 {
+        let trace = self.moment.x_axis.x + self.moment.y_axis.y + self.moment.z_axis.z;
+        if trace <= 1e-6 {
+            return Mat3::ZERO;
+        }
+        let ridge = Mat3::from_diagonal(Vec3::splat(0.01 * trace));
+        let k = self.cross * (self.moment + ridge).inverse() * self.scale;
+        if k.is_finite() {
+            k
+        } else {
+            Mat3::ZERO
+        }
     }
 }
 

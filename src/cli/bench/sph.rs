@@ -12,10 +12,11 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use activeskin::flow::Flow;
 use activeskin::frames::ParticleInput;
 use activeskin::mesh::Mesh;
 use activeskin::particles;
-use activeskin::target::{fluid_iso, LevelSetTarget, Target, DEFAULT_SMOOTHING_LENGTH};
+use activeskin::target::{fluid_iso, Density, LevelSetTarget, Target, DEFAULT_SMOOTHING_LENGTH};
 use activeskin::vdb::Grid;
 use anyhow::Context;
 use glam::Vec3;
@@ -79,6 +80,7 @@ struct Measured {
     volume: Vec<f64>,
     outside: Vec<f64>,
     noise: Vec<f64>,
+    flicker: Vec<f64>,
 }
 
 /// Signed distances to `mesh`, through OpenVDB's meshToLevelSet with a band of
@@ -124,11 +126,60 @@ fn measure(meshes: &[Mesh], clouds: &[Vec<Vec3>], r: f32, dx: f32) -> anyhow::Re
             sum / count.max(1) as f64 / f64::from(dx)
         })
         .collect();
+    let flicker = (1..meshes.len().saturating_sub(1))
+        .map(|n| {
+            flicker(
+                &meshes[n],
+                [&sets[n - 1], &sets[n + 1]],
+                &clouds[n - 1..=n + 1],
+                r,
+                dx,
+            )
+        })
+        .collect();
     Ok(Measured {
         volume,
         outside,
         noise,
+        flicker,
     })
+}
+
+/// The surface's own flicker at frame n, followed along the liquid (voxels): each vertex
+/// of `mesh` carried to the frames before and after by the particles' mean displacement
+/// around it (Shepard, over the kernel's support), where it meets those frames' surfaces
+/// (`around`); half the sum of its two signed distances there is the surface's second
+/// difference in time along the motion. The motion itself, accelerations included,
+/// cancels, and so does a particle's own jitter, which the particle offsets (`noise`)
+/// see in full even under a surface perfectly smooth in time.
+fn flicker(
+    mesh: &Mesh,
+    around: [&LevelSetTarget; 2],
+    clouds: &[Vec<Vec3>],
+    r: f32,
+    dx: f32,
+) -> f64 {
+    let [before, now, after] = clouds else {
+        return 0.0;
+    };
+    let k = before.len().min(now.len()).min(after.len());
+    let support = 2.0 * DEFAULT_SMOOTHING_LENGTH * r;
+    let moved = |to: &[Vec3]| {
+        let steps: Vec<Vec3> = (0..k).map(|i| to[i] - now[i]).collect();
+        Density::new(now[..k].to_vec(), support, 0.0).with_velocities(&steps)
+    };
+    let (back, ahead) = (moved(before), moved(after));
+    let (sum, count) = mesh
+        .positions
+        .par_iter()
+        .filter(|&&x| back.density(x) > 0.0)
+        .map(|&x| {
+            let d = around[0].distance(x + back.velocity(x))
+                + around[1].distance(x + ahead.velocity(x));
+            (f64::from(0.5 * d).abs(), 1usize)
+        })
+        .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    sum / count.max(1) as f64 / f64::from(dx)
 }
 
 fn range(values: &[f64]) -> (f64, f64) {
@@ -160,19 +211,26 @@ pub fn race(
     std::fs::create_dir_all(&dir)?;
     let input = cache.join(format!("{STEM}$F.ply"));
     let radius = r.to_string();
-    let ours_s = timed(
-        Command::new(std::env::current_exe()?)
+    // Timed as splashsurf is, meshes only; then again with --stats for the sub-steps and
+    // each frame's time (its mesh checks cost a quarter of a frame), the same meshes.
+    let ours = |stats: bool| {
+        let mut command = Command::new(std::env::current_exe()?);
+        command
             .arg("particles")
             .arg("--particles")
             .arg(&input)
             .args(["--radius", &radius, "--voxel-size", &radius, "-q"])
             .arg("--mesh")
             .arg(dir.join("ours_####.obj"))
-            .arg("--stats")
-            .arg(dir.join("ours.jsonl"))
             .arg("--frames")
-            .arg(format!("1-{frames}")),
-    )?;
+            .arg(format!("1-{frames}"));
+        if stats {
+            command.arg("--stats").arg(dir.join("ours.jsonl"));
+        }
+        timed(&mut command)
+    };
+    let ours_s = ours(false)?;
+    ours(true)?;
     let theirs_s = match splashsurf {
         Some(binary) => Some(timed(
             Command::new(binary)
@@ -250,11 +308,12 @@ pub fn race(
     let per_frame = |s: f64| s / frames as f64 * 1e3;
     let (v_lo, v_hi) = range(&ours.volume);
     lines.push(format!(
-        "particles, SPH dam break ({} particles, {frames} frames, cell = r)   ours {:.0} ms/frame, volume/N(2r)³ {v_lo:.3}–{v_hi:.3}, {:.2} % of particles > r outside, noise {:.3} voxel, {:.3} voxel from each frame's density, sub-steps {}–{}{}",
+        "particles, SPH dam break ({} particles, {frames} frames, cell = r)   ours {:.0} ms/frame, volume/N(2r)³ {v_lo:.3}–{v_hi:.3}, {:.2} % of particles > r outside, noise {:.3} voxel, flicker {:.3} voxel, {:.3} voxel from each frame's density, sub-steps {}–{}{}",
         clouds[0].len(),
         per_frame(ours_s),
         100.0 * range(&ours.outside).1,
         mean(&ours.noise),
+        mean(&ours.flicker),
         mean(&lag),
         substeps.iter().min().unwrap_or(&0),
         substeps.iter().max().unwrap_or(&0),
@@ -262,12 +321,14 @@ pub fn race(
             (Some(t), Some(s)) => {
                 let (lo, hi) = range(&t.volume);
                 format!(
-                    "   splashsurf {:.0} ms/frame, volume {lo:.3}–{hi:.3}, {:.2} % outside, noise {:.3}   time ratio {:.2}, noise ratio {:.2}",
+                    "   splashsurf {:.0} ms/frame, volume {lo:.3}–{hi:.3}, {:.2} % outside, noise {:.3}, flicker {:.3}   time ratio {:.2}, noise ratio {:.2}, flicker ratio {:.2}",
                     per_frame(s),
                     100.0 * range(&t.outside).1,
                     mean(&t.noise),
+                    mean(&t.flicker),
                     ours_s / s,
                     mean(&ours.noise) / mean(&t.noise),
+                    mean(&ours.flicker) / mean(&t.flicker),
                 )
             }
             _ => String::new(),
@@ -276,7 +337,8 @@ pub fn race(
     let side = |m: &Measured, seconds: f64| {
         json!({"ms_per_frame": per_frame(seconds), "volume_ratio": m.volume,
                "outside_fraction": m.outside, "noise_voxels": m.noise,
-               "noise_mean_voxels": mean(&m.noise)})
+               "noise_mean_voxels": mean(&m.noise), "flicker_voxels": m.flicker,
+               "flicker_mean_voxels": mean(&m.flicker)})
     };
     report.insert(
         "particles_sph".into(),
@@ -285,7 +347,8 @@ pub fn race(
                "ours_frame_ms": frame_ms,
                "splashsurf": theirs.as_ref().zip(theirs_s).map(|(t, s)| side(t, s)),
                "time_ratio": theirs_s.map(|s| ours_s / s),
-               "noise_ratio": theirs.as_ref().map(|t| mean(&ours.noise) / mean(&t.noise))}),
+               "noise_ratio": theirs.as_ref().map(|t| mean(&ours.noise) / mean(&t.noise)),
+               "flicker_ratio": theirs.as_ref().map(|t| mean(&ours.flicker) / mean(&t.flicker))}),
     );
     std::fs::remove_dir_all(&dir)?;
     Ok(())
@@ -335,8 +398,9 @@ mod tests {
         let dx = 0.02;
         let (meshes, clouds) = shot(0.0);
         let steady = measure(&meshes, &clouds, dx, dx).unwrap();
-        // Steady motion of 5 voxels a frame is no noise.
+        // Steady motion of 5 voxels a frame is no noise, no flicker.
         assert!(mean(&steady.noise) < 0.02, "{:?}", steady.noise);
+        assert!(mean(&steady.flicker) < 0.02, "{:?}", steady.flicker);
         // One particle of 401 lies 2 voxels out: more than r = 1 voxel.
         for f in &steady.outside {
             assert!((f - 1.0 / 401.0).abs() < 1e-9, "{f}");
@@ -349,5 +413,7 @@ mod tests {
         let wobbly = measure(&meshes, &clouds, dx, dx).unwrap();
         let noise = mean(&wobbly.noise);
         assert!((0.3..0.5).contains(&noise), "{:?}", wobbly.noise);
+        let flicker = mean(&wobbly.flicker);
+        assert!((0.3..0.5).contains(&flicker), "{:?}", wobbly.flicker);
     }
 }

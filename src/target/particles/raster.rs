@@ -34,6 +34,8 @@ struct Block {
     /// This block and its 26 neighbours have G > iso at every node: the surface is more
     /// than a block away (see [`DensityGrid::distance`]).
     deep: bool,
+    /// Some node has G > iso.
+    inside: bool,
 }
 
 /// A particle density sampled at the nodes of a grid of voxel `dx` (node ijk at ijk·dx,
@@ -111,6 +113,7 @@ impl DensityGrid {
                     field: Box::new([[0.0; NODES]; 4]),
                     momentum: velocities.then(|| Box::new([[0.0; NODES]; 3])),
                     deep: false,
+                    inside: false,
                 };
                 let lo = (coord * DIM).as_vec3() * dx;
                 let hi = (coord * DIM + IVec3::splat(DIM - 1)).as_vec3() * dx;
@@ -258,6 +261,10 @@ impl DensityGrid {
     }
 
     fn mark_deep(&mut self) {
+        let iso = self.iso;
+        self.blocks
+            .par_iter_mut()
+            .for_each(|b| b.inside = b.field[0].iter().any(|&g| g > iso));
         let full: Vec<bool> = self
             .blocks
             .par_iter()
@@ -468,6 +475,17 @@ impl Target for DensityGrid {
     }
     fn bounds(&self) -> Aabb {
         self.bounds
+    }
+    /// Inside only where some node of the blocks around `region` has G > iso: the
+    /// trilinear density between nodes never exceeds theirs.
+    fn may_be_inside(&self, region: Aabb) -> bool {
+        let lo: IVec3 = (region.min / self.dx).floor().as_ivec3() >> 3;
+        let hi: IVec3 = (region.max / self.dx).ceil().as_ivec3() >> 3;
+        (lo.x..=hi.x).any(|x| {
+            (lo.y..=hi.y).any(|y| {
+                (lo.z..=hi.z).any(|z| self.block(IVec3::new(x, y, z)).is_some_and(|b| b.inside))
+            })
+        })
     }
 }
 
