@@ -27,7 +27,7 @@ pub struct BenchArgs {
     full: bool,
     /// Also race splashsurf on particles: a SPlisHSPlasH dam break in motion (baked once
     /// into ~/.cache/activeskin/sph, or ACTIVESKIN_SPH_CACHE, with pysplishsplash; skipped
-    /// when it cannot be), time, volume, particles outside and temporal noise per frame;
+    /// when it cannot be), time, volume, particles outside, temporal noise and flicker;
     /// 100 k and 1 M particles at rest, ms per frame; distance to the true surface and
     /// flicker on a fluid at rest. splashsurf is installed into the cache folder with
     /// cargo when not found.

@@ -6,8 +6,9 @@
 //! and the temporal noise — following each particle near the surface (the cache keeps
 //! them in order), the second difference in time of its signed distance to the surface:
 //! a surface that follows the liquid changes that offset smoothly, a flickering one does
-//! not, and the motion itself (up to 47 voxels a frame here) cancels. For activeskin,
-//! also the mean distance to each frame's own density iso-surface (its lag).
+//! not, and the motion itself (up to 47 voxels a frame here) cancels; and the flicker
+//! along the motion ([`flicker`]), which a particle's own jitter does not enter. For
+//! activeskin, also the mean distance to each frame's own density iso-surface (its lag).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
