@@ -193,6 +193,7 @@ impl OutputArgs {
                 Progress::Auto
             },
             stats_fields: Default::default(),
+            reads: Vec::new(),
         })
     }
 }

@@ -101,24 +101,38 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     let skin = AnySkin::new(&Blobs::fig7_points(), fig7.params(dx)?);
     let spheres = Union::fig7_spheres();
     let out = outputs(&args.out, "fig7", args.quiet);
-    run_frames((1, 48), 1, skin, (fig7.fps, Timing::Start), &out, |_| {
-        Ok(FrameInput::target(Box::new(&spheres)))
-    })?;
+    run_frames(
+        (1, 48),
+        1,
+        skin,
+        (fig7.fps, Timing::Start),
+        &out,
+        Vec::new(),
+        |_| Ok(FrameInput::target(Box::new(&spheres))),
+    )?;
 
     // The orbit's motion is known: the skin is carried by it (§7), α = 4 corrects.
     let moving = physics(4.0, 0.0005);
     let skin = AnySkin::new(&Orbiting { time: 0.0 }, moving.params(dx)?);
     let out = outputs(&args.out, "orbit", args.quiet);
     // An analytic velocity, exact at each frame: the mean of both ends is second order.
-    run_frames((1, 48), 1, skin, (moving.fps, Timing::Mid), &out, |frame| {
-        let time = (frame - 1) as f32 / 24.0;
-        Ok(FrameInput {
-            target: Box::new(Orbiting { time }),
-            flow: Some(Box::new(Orbiting { time })),
-            carried: None,
-            seed: false,
-        })
-    })?;
+    run_frames(
+        (1, 48),
+        1,
+        skin,
+        (moving.fps, Timing::Mid),
+        &out,
+        Vec::new(),
+        |frame| {
+            let time = (frame - 1) as f32 / 24.0;
+            Ok(FrameInput {
+                target: Box::new(Orbiting { time }),
+                flow: Some(Box::new(Orbiting { time })),
+                carried: None,
+                seed: false,
+            })
+        },
+    )?;
 
     // The drop of data/splash (same animation), its particles written alongside.
     let mut drop = splash::Splash::new();
@@ -147,6 +161,8 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         skin,
         (liquid.fps, Timing::Start),
         &out,
+        // The demo writes its particles itself, before the run.
+        Vec::new(),
         |frame| {
             Ok(FrameInput {
                 target: Box::new(density(frame)),

@@ -13,6 +13,7 @@ use super::bad_usage;
 use super::skin::{parse_frames, run_frames};
 use activeskin::frames::read_target;
 use activeskin::frames::FrameInput;
+use activeskin::sequence::FramePattern;
 
 #[derive(clap::Args)]
 pub struct MorphArgs {
@@ -88,6 +89,12 @@ pub fn run(args: &MorphArgs) -> anyhow::Result<()> {
         skin,
         (args.physics.fps, Timing::Start),
         &args.outputs,
+        // The shapes read from files.
+        [&args.from, &args.to]
+            .into_iter()
+            .filter(|s| Path::new(s).is_file())
+            .map(|s| FramePattern::held(s))
+            .collect(),
         |_| Ok(FrameInput::target(Box::new(to))),
     )
 }

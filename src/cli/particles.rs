@@ -174,6 +174,7 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
         skin,
         (args.physics.fps, timing),
         &args.outputs,
+        vec![input.pattern.clone()],
         |frame| {
             let (density, carried) = match first.take() {
                 Some(grid) if frame == range.0 => (grid, false),

@@ -5,10 +5,10 @@ use std::path::PathBuf;
 
 use activeskin::flow::{Flow, Timing};
 use activeskin::frames::{
-    self, read_target_in, FrameError, FrameInput, InputFrames, Outputs, ScaleEstimate, TargetRead,
-    TargetUnits, VelocityInput, VelocitySource,
+    self, read_target_in, FrameError, FrameInput, InputFrames, OutputSpec, Outputs, ScaleEstimate,
+    TargetRead, TargetUnits, VelocityInput, VelocitySource,
 };
-use activeskin::sequence::parse_range;
+use activeskin::sequence::{parse_range, FramePattern};
 use activeskin::skin::AnySkin;
 
 use super::args::{OutputArgs, PhysicsArgs, VelocityTime};
@@ -88,9 +88,14 @@ pub fn run_frames<'t>(
     skin: AnySkin,
     motion: (f64, Timing),
     outputs: &OutputArgs,
+    reads: Vec<FramePattern>,
     input_at: impl FnMut(i64) -> Result<FrameInput<'t>, FrameError>,
 ) -> anyhow::Result<()> {
-    let mut outputs = Outputs::new(&outputs.spec()?, (write_from, range.1))?;
+    let spec = OutputSpec {
+        reads,
+        ..outputs.spec()?
+    };
+    let mut outputs = Outputs::new(&spec, (write_from, range.1))?;
     Ok(frames::run(
         range,
         write_from,
@@ -331,6 +336,14 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
     };
     drop(first_target);
     let mut spec = args.outputs.spec()?;
+    spec.reads = std::iter::once(input.pattern.clone())
+        .chain(velocity.files.clone())
+        .chain(
+            args.init
+                .iter()
+                .map(|p| FramePattern::held(&p.to_string_lossy())),
+        )
+        .collect();
     if let Some(estimate) = &estimate {
         spec.stats_fields
             .insert("velocity_scale".into(), estimate.to_json());

@@ -5,6 +5,7 @@ use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use hashbrown::HashMap;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::FrameError;
@@ -42,6 +43,8 @@ pub struct OutputSpec {
     /// Fields added to every stats line (how the run was set up, e.g. the velocity's
     /// measured scale).
     pub stats_fields: serde_json::Map<String, serde_json::Value>,
+    /// The files the run reads: no output may overwrite one of them.
+    pub reads: Vec<FramePattern>,
 }
 
 /// Writes each frame's outputs and reports progress.
@@ -79,6 +82,7 @@ impl Outputs {
                 "--resume needs --out: it continues from the last skin VDB written there".into(),
             );
         }
+        check_apart(spec, (first, last))?;
         for pattern in out.iter().chain(&mesh).chain(render.iter().map(|r| &r.0)) {
             let folder = pattern.folder();
             std::fs::create_dir_all(&folder).map_err(|e| {
@@ -257,6 +261,85 @@ impl Outputs {
 /// The box a render's camera frames around a skin's `bounds`.
 fn framing(bounds: Aabb) -> Aabb {
     bounds.padded(0.25 * (bounds.max - bounds.min).max_element())
+}
+
+/// Refuses, before anything is written, outputs that would overwrite a file the run reads
+/// (`spec.reads`: the same path, or a symlink or hard link to it) or each other, for
+/// frames `first..=last`: one typo in a pattern would otherwise replace a whole cache.
+fn check_apart(spec: &OutputSpec, (first, last): (i64, i64)) -> Result<(), FrameError> {
+    // More frames than a run could write are not listed (the check would be the cost).
+    const MOST: i64 = 1 << 20;
+    let frames = || first..=last.min(first.saturating_add(MOST));
+    let paths = |pattern: &FramePattern| -> Vec<PathBuf> {
+        if pattern.is_held() {
+            vec![pattern.path(first)]
+        } else {
+            frames().map(|f| pattern.path(f)).collect()
+        }
+    };
+    let mut read = HashMap::new();
+    for pattern in &spec.reads {
+        for path in paths(pattern) {
+            if let Some(id) = file_id(&path) {
+                read.entry(id).or_insert(path);
+            }
+        }
+    }
+    let mut written: HashMap<PathBuf, &str> = HashMap::new();
+    let outputs = [("--out", spec.out.as_ref()), ("--mesh", spec.mesh.as_ref())]
+        .into_iter()
+        .chain([("--render", spec.render.as_ref().map(|r| &r.0))])
+        .filter_map(|(flag, p)| p.map(|p| (flag, paths(p))))
+        .chain(spec.stats.iter().map(|p| ("--stats", vec![p.clone()])));
+    for (flag, paths) in outputs {
+        for path in paths {
+            // Lexically too: `new/../input` names the input once `new` is created.
+            let id = file_id(&path).or_else(|| file_id(&lexical(&path)));
+            if let Some(input) = id.and_then(|id| read.get(&id)) {
+                return Err(FrameError::Usage(format!(
+                    "{flag} would overwrite the input {}: write elsewhere",
+                    input.display()
+                )));
+            }
+            if let Some(other) = written.insert(lexical(&path), flag) {
+                return Err(FrameError::Usage(format!(
+                    "{other} and {flag} would both write {}",
+                    path.display()
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// What makes a file itself whatever path leads to it: device and inode (symlinks
+/// followed); `None` when it does not exist.
+#[cfg(unix)]
+fn file_id(path: &Path) -> Option<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
+}
+
+#[cfg(not(unix))]
+fn file_id(path: &Path) -> Option<PathBuf> {
+    std::fs::canonicalize(path).ok()
+}
+
+/// `path` made absolute, `.` and `..` resolved without touching the disk (outputs need not
+/// exist yet).
+fn lexical(path: &Path) -> PathBuf {
+    let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut out = PathBuf::new();
+    for part in absolute.components() {
+        match part {
+            std::path::Component::CurDir => {}
+            std::path::Component::ParentDir => {
+                out.pop();
+            }
+            other => out.push(other),
+        }
+    }
+    out
 }
 
 /// Removes the temporary files a killed run left behind for this pattern's `frames`
