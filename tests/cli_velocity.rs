@@ -452,3 +452,32 @@ fn particles_with_velocities_carry_the_skin() {
         "{attracted} vs {carried}"
     );
 }
+
+/// One NaN voxel in a frame's velocity (a solver's blow-up) stops the run with one line
+/// naming the file and the grid: never a panic on every thread.
+#[test]
+fn a_nan_in_the_velocity_is_one_line() {
+    let data = common::scratch();
+    let bad = IVec3::new(13, 0, 0);
+    let target = write_frames(data.path(), ("vel", false, false), sphere, |frame, p| {
+        if frame == 3 && (p / DX).round().as_ivec3() == bad {
+            Vec3::NAN
+        } else {
+            velocity(p)
+        }
+    });
+    let out = common::scratch();
+    let mesh = out.path().join("m.####.obj").to_string_lossy().into_owned();
+    let result = activeskin(&[
+        "skin",
+        "--target",
+        &target,
+        "--mesh",
+        &mesh,
+        "--velocity-scale",
+        "1",
+        "-q",
+    ]);
+    assert_fails(&result, 1, "liquid.0003.vdb", "a NaN velocity");
+    assert!(stderr(&result).contains("NaN"), "{}", stderr(&result));
+}

@@ -42,7 +42,8 @@ impl VelocityBlock {
 impl GridFlow {
     /// The grid's active voxels and tiles times `scale`, extended by
     /// [`EXTENSION_LAYERS`]; tiles wider than 64 voxels are refused (a uniform velocity
-    /// over a region that size is better given as a rigid motion).
+    /// over a region that size is better given as a rigid motion), and so are velocities
+    /// that are NaN or infinite.
     pub fn new(grid: &VectorGrid, scale: f32) -> Result<Self, String> {
         let mut voxels = HashMap::new();
         for (leaf, origin) in grid.leaf_origins.iter().enumerate() {
@@ -71,6 +72,17 @@ impl GridFlow {
                     }
                 }
             }
+        }
+        // A solver's blow-up (or a scale too large for f32) would poison every sample
+        // near it.
+        let bad = voxels.values().filter(|v| !v.is_finite()).count();
+        if bad > 0 {
+            return Err(format!(
+                "grid '{}' has {bad} voxel{} whose velocity is NaN or infinite{}",
+                grid.name,
+                if bad == 1 { "" } else { "s" },
+                if scale == 1.0 { "" } else { " after the scale" }
+            ));
         }
         extend(&mut voxels, EXTENSION_LAYERS);
         // OpenVDB's row-vector matrix read column-major is the column-vector map.
