@@ -93,6 +93,7 @@ pub fn run<'t>(
     mut input_at: impl FnMut(i64) -> Result<FrameInput<'t>, FrameError>,
 ) -> Result<(), FrameError> {
     let mut start = first;
+    skin.limit_substeps(Some(crate::skin::MAX_SUBSTEPS));
     outputs.frame_camera(skin.mesh());
     if outputs.resume() {
         if let Some((frame, path)) = (write_from.max(first)..=last)
@@ -126,11 +127,11 @@ pub fn run<'t>(
             0
         } else {
             let input = input_at(frame)?;
-            let substeps = match &input.carried {
+            let stepped = match &input.carried {
                 Some(map) => {
                     // The flow map carries the skin; the attraction corrects the shape.
                     skin.carry(&**map, (1.0 / fps) as f32);
-                    skin.advance(&*input.target, 1.0 / fps).substeps
+                    skin.advance(&*input.target, 1.0 / fps)
                 }
                 None => {
                     let before = match previous.take() {
@@ -140,9 +141,15 @@ pub fn run<'t>(
                     let mut mean = None;
                     let flow = timing.interval(before.as_deref(), input.flow.as_deref(), &mut mean);
                     skin.advance_in_flow(&*input.target, flow, 1.0 / fps)
-                        .substeps
                 }
             };
+            if let Some(stopped) = stepped.stopped {
+                return Err(FrameError::Data(format!(
+                    "frame {frame} ({:.3e} s at {fps} fps) {stopped}",
+                    1.0 / fps
+                )));
+            }
+            let substeps = stepped.substeps;
             if input.seed {
                 skin.seed(&*input.target);
             }

@@ -75,7 +75,60 @@ pub struct StepStats {
     /// Largest |Δφ| / Δx of the last sub-step within w − 1 voxels of the skin (measured
     /// only when [`Skin::track_change`] is on).
     pub max_change_voxels: f32,
+    /// Why the advance stopped short, when it would have needed more sub-steps than
+    /// [`Skin::limit_substeps`] allows.
+    pub stopped: Option<Stopped>,
 }
+
+/// An advance that would have needed more sub-steps than allowed, and the bound that
+/// forced them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stopped {
+    pub needed: f64,
+    pub limit: StepLimit,
+}
+
+/// What sets a sub-step's length.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StepLimit {
+    /// The flow's speed (world units a second) and how many voxels it moves in the advance.
+    Flow { speed: f32, voxels: f64 },
+    /// The attraction's speed, world units a second, at α.
+    Attraction { speed: f32, alpha: f32 },
+    /// The tension β and the step it allows (seconds).
+    Tension { beta: f32, step: f32 },
+    /// α (or the area and volume gains), relaxing in 1/α seconds.
+    Relaxation { alpha: f32 },
+}
+
+impl std::fmt::Display for Stopped {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "would need {:.3e} sub-steps: ", self.needed)?;
+        match self.limit {
+            StepLimit::Flow { speed, voxels } => write!(
+                f,
+                "the velocity reaches {speed:.3e} world units a second ({voxels:.3e} voxels a frame): check its scale and units"
+            ),
+            StepLimit::Attraction { speed, alpha } => write!(
+                f,
+                "the attraction moves the skin {speed:.3e} world units a second (α = {alpha})"
+            ),
+            StepLimit::Tension { beta, step } => {
+                write!(f, "the tension β = {beta} needs steps of {step:.3e} s")
+            }
+            StepLimit::Relaxation { alpha } => write!(
+                f,
+                "α = {alpha} (or the area and volume gains) relaxes the skin in {:.3e} s",
+                1.0 / alpha
+            ),
+        }
+    }
+}
+
+/// Most sub-steps a frame of the frame loop may take (real runs take 1–40): beyond, it
+/// stops and says which bound forced them — a velocity or α out of all proportion, a
+/// frame rate of almost nothing — instead of running until killed.
+pub const MAX_SUBSTEPS: u32 = 10_000;
 
 /// A skin stored with potential type `P`.
 pub struct Skin<P> {
@@ -98,6 +151,8 @@ pub struct Skin<P> {
     rest_volume: f64,
     last_change: f32,
     track_change: bool,
+    /// At most this many sub-steps an advance ([`Skin::limit_substeps`]).
+    max_substeps: Option<u32>,
 }
 
 impl<P: Potential> Skin<P> {
@@ -158,6 +213,7 @@ impl<P: Potential> Skin<P> {
             rest_volume: 0.0,
             last_change: 0.0,
             track_change: false,
+            max_substeps: None,
         };
         for _ in 0..3 {
             band::renormalize(&mut skin.grid, w, 0.0, &mut skin.rates);
@@ -206,6 +262,7 @@ impl<P: Potential> Skin<P> {
             euler_characteristic: self.mesh.euler_characteristic(),
             components: self.mesh.components(),
             max_change_voxels: self.last_change,
+            stopped: None,
         }
     }
 
@@ -262,6 +319,17 @@ impl<P: Potential> Skin<P> {
                 f32::INFINITY
             };
             let stable = self.dt_bound(v_max).min(carried);
+            if let Some(most) = self.max_substeps {
+                let needed = f64::from(substeps) + (remaining / f64::from(stable)).ceil();
+                if needed.is_nan() || needed > f64::from(most) {
+                    let limit = self.step_limit(v_max, (u_max, carried), duration);
+                    return StepStats {
+                        substeps,
+                        stopped: Some(Stopped { needed, limit }),
+                        ..self.stats()
+                    };
+                }
+            }
             let dt = timestep::next_substep(remaining, stable);
             self.apply_rates(dt as f32, flow);
             self.time += dt;
@@ -271,6 +339,34 @@ impl<P: Potential> Skin<P> {
         StepStats {
             substeps,
             ..self.stats()
+        }
+    }
+
+    /// The bound that sets the sub-step: the flow's speed (`u_max`, the step it allows
+    /// `carried`), the attraction's (`v_max`), the tension β, or a relaxation rate.
+    fn step_limit(&self, v_max: f32, (u_max, carried): (f32, f32), duration: f64) -> StepLimit {
+        let dx = self.params.dx;
+        let speed = &self.params.speed;
+        if carried <= self.dt_bound(v_max) {
+            return StepLimit::Flow {
+                speed: u_max,
+                voxels: f64::from(u_max / dx) * duration,
+            };
+        }
+        let hyperbolic = dx / v_max;
+        let parabolic = dx * dx / (6.0 * speed.beta);
+        if v_max > 0.0 && hyperbolic <= parabolic && hyperbolic <= 1.0 / speed.alpha {
+            StepLimit::Attraction {
+                speed: v_max,
+                alpha: speed.alpha,
+            }
+        } else if speed.beta > 0.0 && parabolic <= 1.0 / speed.alpha {
+            StepLimit::Tension {
+                beta: speed.beta,
+                step: parabolic,
+            }
+        } else {
+            StepLimit::Relaxation { alpha: speed.alpha }
         }
     }
 
@@ -472,6 +568,12 @@ impl<P: Potential> Skin<P> {
             self.last_change = max_change(&before, &self.grid, w) * w;
         }
         self.polygonize();
+    }
+
+    /// Stops each advance that would need more than `most` sub-steps before taking them
+    /// (its [`StepStats::stopped`] says why); `None`: no limit.
+    pub fn limit_substeps(&mut self, most: Option<u32>) {
+        self.max_substeps = most;
     }
 
     /// Record the largest |Δφ| of each step in [`StepStats::max_change_voxels`] (costs a

@@ -100,3 +100,37 @@ fn bad_morph_arguments_are_one_line_errors() {
         assert!(stderr.contains(expect), "expected '{expect}': {stderr}");
     }
 }
+
+/// Parameters that would need millions of sub-steps a frame stop at once with one line
+/// naming the bound, instead of running until killed (issue 31).
+#[test]
+fn sub_steps_are_bounded() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.####.vdb");
+    for (extra, names) in [
+        (["--alpha", "1e9"], "α = 1000000000"),
+        (["--fps", "1e-9"], "1.000e9 s at"),
+    ] {
+        let mut args = vec![
+            "morph",
+            "--from",
+            "sphere:r=0.4",
+            "--to",
+            "sphere:r=0.5",
+            "--frames",
+            "1-3",
+            "--out",
+            out.to_str().unwrap(),
+            "-q",
+        ];
+        args.extend(extra);
+        let started = std::time::Instant::now();
+        let result = activeskin(&args);
+        common::assert_fails(&result, 1, names, "too many sub-steps");
+        assert!(common::stderr(&result).contains("sub-steps"));
+        assert!(started.elapsed().as_secs() < 30);
+        // Frame 1 (the start) is written, frame 2 never.
+        assert!(dir.path().join("m.0001.vdb").is_file());
+        assert!(!dir.path().join("m.0002.vdb").exists());
+    }
+}

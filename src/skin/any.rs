@@ -67,6 +67,9 @@ impl AnySkin {
     pub fn set_time(&mut self, time: f64) {
         each!(self, s => s.set_time(time))
     }
+    pub fn limit_substeps(&mut self, most: Option<u32>) {
+        each!(self, s => s.limit_substeps(most))
+    }
     pub fn seed(&mut self, target: &dyn Target) -> usize {
         each!(self, s => s.seed(target))
     }
