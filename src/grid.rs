@@ -15,7 +15,7 @@ use glam::IVec3;
 use hashbrown::{HashMap, HashSet};
 use rayon::prelude::*;
 
-pub(crate) use halo::{Halo, WideHalo, HALO_DIM, WIDE_DIM};
+pub(crate) use halo::{Halo, InsideRows, WideHalo, HALO_DIM, WIDE_DIM};
 
 /// Nodes along a block edge.
 pub const BLOCK_DIM: i32 = 8;

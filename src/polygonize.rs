@@ -13,7 +13,7 @@ use rayon::prelude::*;
 
 use crate::grid::{
     around_bit, bits, neighbour_steps, node_offset, row_bits, sides_of_rows, Block, BlockId, Halo,
-    Potential, SparseGrid, TileSides, AROUND, BLOCK_DIM, HALO_DIM,
+    InsideRows, Potential, SparseGrid, TileSides, AROUND, BLOCK_DIM,
 };
 use crate::mesh::Mesh;
 use crate::volume::GridData;
@@ -219,35 +219,6 @@ fn concat<'a, T: Copy + Send + Sync + 'a>(out: &mut Vec<T>, parts: impl Iterator
     });
     // SAFETY: the pieces tile the first `total` spare slots, and every slot was written.
     unsafe { out.set_len(total) };
-}
-
-/// Which nodes of a halo are inside, one row along z at a time: bit k + 1 for local z = k.
-#[derive(Clone)]
-struct InsideRows([u16; HALO_DIM * HALO_DIM]);
-
-impl Default for InsideRows {
-    fn default() -> Self {
-        InsideRows([0; HALO_DIM * HALO_DIM])
-    }
-}
-
-impl InsideRows {
-    fn of(halo: &Halo) -> Self {
-        let mut rows = [0u16; HALO_DIM * HALO_DIM];
-        for (bits, row) in rows.iter_mut().zip(halo.values.chunks_exact(HALO_DIM)) {
-            *bits = row
-                .iter()
-                .enumerate()
-                .fold(0, |b, (k, &v)| b | u16::from(inside(v)) << k);
-        }
-        InsideRows(rows)
-    }
-
-    /// The row of local (x, y), each in -1..=8.
-    #[inline]
-    fn at(&self, x: i32, y: i32) -> u16 {
-        self.0[(x + 1) as usize * HALO_DIM + (y + 1) as usize]
-    }
 }
 
 /// Visits each block of `grid` with its item, its halo (gathered only when the block has

@@ -55,13 +55,8 @@ fn particle_meshes_never_replace_the_particles() {
     std::fs::hard_link(d.join("p.0003.ply"), d.join("hard.0003.ply")).unwrap();
     let before = contents(d);
     let input = d.join("p.####.ply");
-    for mesh in [
-        "p.####.ply",
-        "new/../p.####.ply",
-        "link.####.ply",
-        "hard.####.ply",
-    ] {
-        let out = activeskin(&[
+    let particles = |mesh: &str| {
+        activeskin(&[
             "particles",
             "--particles",
             input.to_str().unwrap(),
@@ -70,22 +65,20 @@ fn particle_meshes_never_replace_the_particles() {
             "--mesh",
             d.join(mesh).to_str().unwrap(),
             "-q",
-        ]);
-        assert_usage_error(&out, "would overwrite the input");
+        ])
+    };
+    for mesh in [
+        "p.####.ply",
+        "new/../p.####.ply",
+        "link.####.ply",
+        "hard.####.ply",
+    ] {
+        assert_usage_error(&particles(mesh), "would overwrite the input");
         assert_eq!(contents(d), before, "{mesh}: the inputs changed");
         assert!(!d.join("new").exists(), "{mesh}: a folder was made");
     }
     // Elsewhere, the same run writes its meshes.
-    let out = activeskin(&[
-        "particles",
-        "--particles",
-        input.to_str().unwrap(),
-        "--radius",
-        "0.01",
-        "--mesh",
-        d.join("m.####.ply").to_str().unwrap(),
-        "-q",
-    ]);
+    let out = particles("m.####.ply");
     common::assert_ok(&out);
     assert!(d.join("m.0003.ply").is_file());
 }

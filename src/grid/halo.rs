@@ -230,3 +230,61 @@ mod tests {
         gathers_what_the_grid_holds::<Fixed16>();
     }
 }
+
+/// Which nodes of a halo are inside (f < 0, as the polygonizer cuts), one row along z at
+/// a time: bit k + 1 for local z = k.
+#[derive(Clone)]
+pub(crate) struct InsideRows([u16; HALO_DIM * HALO_DIM]);
+
+impl Default for InsideRows {
+    fn default() -> Self {
+        InsideRows([0; HALO_DIM * HALO_DIM])
+    }
+}
+
+impl InsideRows {
+    pub(crate) fn of(halo: &Halo) -> Self {
+        let mut rows = [0u16; HALO_DIM * HALO_DIM];
+        for (bits, row) in rows.iter_mut().zip(halo.values.chunks_exact(HALO_DIM)) {
+            *bits = row
+                .iter()
+                .enumerate()
+                .fold(0, |b, (k, &v)| b | u16::from(v < 0.0) << k);
+        }
+        InsideRows(rows)
+    }
+
+    /// The row of local (x, y), each in -1..=8.
+    #[inline]
+    pub(crate) fn at(&self, x: i32, y: i32) -> u16 {
+        self.0[(x + 1) as usize * HALO_DIM + (y + 1) as usize]
+    }
+
+    /// Bit z (local z in 0..8): node (x, y, z) has a node of each side among itself and
+    /// its 26 neighbours (x, y in 0..8).
+    pub(crate) fn mixed_around(&self, x: i32, y: i32) -> u8 {
+        let (mut any, mut all) = (0u16, 0x3FFu16);
+        for a in x - 1..=x + 1 {
+            for b in y - 1..=y + 1 {
+                let r = self.at(a, b);
+                any |= r | r << 1 | r >> 1;
+                all &= r & (r << 1 | 1) & (r >> 1 | 0x200);
+            }
+        }
+        ((any & !all) >> 1) as u8
+    }
+
+    /// Bit z + 1 (local z in -1..8): the cell with lower corner (x, y, z) has corners on
+    /// both sides (x, y in -1..8).
+    pub(crate) fn crossed_cells(&self, x: i32, y: i32) -> u16 {
+        let (r0, r1, r2, r3) = (
+            self.at(x, y),
+            self.at(x + 1, y),
+            self.at(x, y + 1),
+            self.at(x + 1, y + 1),
+        );
+        let (any, all) = (r0 | r1 | r2 | r3, r0 & r1 & r2 & r3);
+        // Cell z spans bits z + 1 and z + 2.
+        ((any | any >> 1) & !(all & all >> 1)) & 0x1FF
+    }
+}

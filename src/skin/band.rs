@@ -6,8 +6,8 @@ use glam::IVec3;
 use rayon::prelude::*;
 
 use crate::grid::{
-    bits, mask_offsets, node_offset, offset_coords, Block, Halo, Potential, SparseGrid, AROUND,
-    BLOCK_DIM, BLOCK_NODES, HALO_DIM,
+    bits, mask_offsets, node_offset, offset_coords, Block, Halo, InsideRows, Potential, SparseGrid,
+    AROUND, BLOCK_DIM, BLOCK_NODES,
 };
 
 /// One Jacobi sweep of the Godunov upwind scheme for |∇f| = 1/w, over active nodes not
@@ -211,7 +211,7 @@ pub(crate) fn clamp_at_crossings<P: Potential>(
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
 ) {
     each_halo(grid, scratch, |halo, _, out| {
-        let signs = SignRows::of(halo);
+        let signs = InsideRows::of(halo);
         for x in 0..BLOCK_DIM {
             for y in 0..BLOCK_DIM {
                 let start = node_offset(x, y, 0);
@@ -254,7 +254,7 @@ pub(crate) fn unstored_crossed<P: Potential>(grid: &SparseGrid<P>) -> Vec<IVec3>
                 return out;
             }
             halo.gather(grid, block);
-            let signs = SignRows::of(halo);
+            let signs = InsideRows::of(halo);
             for x in -1..BLOCK_DIM {
                 for y in -1..BLOCK_DIM {
                     for k in bits(signs.crossed_cells(x, y)) {
@@ -286,61 +286,6 @@ pub(crate) fn unstored_crossed<P: Potential>(grid: &SparseGrid<P>) -> Vec<IVec3>
     missing.sort_unstable_by_key(|c| c.to_array());
     missing.dedup();
     missing
-}
-
-/// Which nodes of a halo are inside (f < 0), a row along z at a time: bit z + 1 for
-/// local z in -1..=8.
-struct SignRows([[u16; HALO_DIM]; HALO_DIM]);
-
-impl SignRows {
-    fn of(halo: &Halo) -> Self {
-        let mut rows = [[0u16; HALO_DIM]; HALO_DIM];
-        for (hx, plane) in rows.iter_mut().enumerate() {
-            for (hy, row) in plane.iter_mut().enumerate() {
-                let start = Halo::index(hx as i32 - 1, hy as i32 - 1, -1);
-                *row = halo.values[start..start + HALO_DIM]
-                    .iter()
-                    .enumerate()
-                    .fold(0, |b, (k, &v)| b | u16::from(v < 0.0) << k);
-            }
-        }
-        SignRows(rows)
-    }
-
-    #[inline]
-    fn at(&self, x: i32, y: i32) -> u16 {
-        self.0[(x + 1) as usize][(y + 1) as usize]
-    }
-
-    /// Bit z (local z in 0..8): node (x, y, z) has a node of each sign among itself and
-    /// its 26 neighbours (x, y in 0..8).
-    fn mixed_around(&self, x: i32, y: i32) -> u8 {
-        let (mut any, mut all) = (0u16, 0x3FFu16);
-        for a in x - 1..=x + 1 {
-            for b in y - 1..=y + 1 {
-                let r = self.at(a, b);
-                any |= r | r << 1 | r >> 1;
-                all &= r & (r << 1 | 1) & (r >> 1 | 0x200);
-            }
-        }
-        ((any & !all) >> 1) as u8
-    }
-
-    /// Bit z + 1 (local z in -1..8): the cell with lower corner (x, y, z) has corners of
-    /// both signs (x, y in -1..8).
-    fn crossed_cells(&self, x: i32, y: i32) -> u16 {
-        let (r0, r1, r2, r3) = (
-            self.at(x, y),
-            self.at(x + 1, y),
-            self.at(x, y + 1),
-            self.at(x + 1, y + 1),
-        );
-        let any = r0 | r1 | r2 | r3;
-        let all = r0 & r1 & r2 & r3;
-        // Cell z spans bits z + 1 and z + 2.
-        let (any, all) = (any | any >> 1, all & all >> 1);
-        (any & !all) & 0x1FF
-    }
 }
 
 /// Sets every node of the blocks to `value(global node)`, clamped; used to start a skin.

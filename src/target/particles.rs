@@ -111,7 +111,7 @@ pub struct Density {
     volumes: Vec<f32>,
     /// Each particle's velocity, in `particles`' order (empty when unknown).
     velocities: Vec<Vec3>,
-    /// Each particle's velocity gradient ([`Density::with_velocity_gradients`]), in
+    /// Each particle's velocity gradient ([`Density::normalized_with_gradients`]), in
     /// `particles`' order (empty when not fitted).
     gradients: Vec<Mat3>,
     /// The largest support: the cell size.
@@ -190,24 +190,9 @@ impl Density {
     /// past the liquid's surface; the mean of the u_i alone (Shepard) lags the surface
     /// wherever the motion varies across it: a spreading puddle carried by it gained
     /// 28 % of its volume in five frames (its top, squeezed, carried from deeper down).
-    pub fn with_velocity_gradients(mut self) -> Self {
-        if self.velocities.is_empty() {
-            return self;
-        }
-        self.gradients = self.per_particle(|i, runs| {
-            let mut fit = GradientFit::new(&self, i);
-            for run in runs {
-                for j in run.clone() {
-                    fit.add(&self, j);
-                }
-            }
-            fit.gradient()
-        });
-        self
-    }
-
-    /// [`Density::normalized`] and [`Density::with_velocity_gradients`] in one pass over
-    /// the neighbours (the same sums, in the same order).
+    ///
+    /// With [`Density::normalized`]'s particle volumes, in the same pass over the
+    /// neighbours (the same sums, in the same order); without velocities, those alone.
     pub fn normalized_with_gradients(mut self, rest: f32) -> Self {
         if self.velocities.is_empty() {
             return self.normalized(rest);
@@ -361,7 +346,7 @@ impl Density {
 }
 
 /// The weighted least-squares sums of one particle's velocity gradient
-/// ([`Density::with_velocity_gradients`]), in units of its support so that the moments
+/// ([`Density::normalized_with_gradients`]), in units of its support so that the moments
 /// are of order 1.
 struct GradientFit {
     i: usize,
