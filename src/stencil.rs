@@ -141,6 +141,18 @@ impl RowTerms {
     }
 }
 
+/// Catmull-Rom weights of the four nodes around a point at fraction `t` past the second.
+#[inline]
+pub(crate) fn cubic_weights(t: f32) -> [f32; 4] {
+    let (t2, t3) = (t * t, t * t * t);
+    [
+        0.5 * (-t3 + 2.0 * t2 - t),
+        0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+        0.5 * (-3.0 * t3 + 4.0 * t2 + t),
+        0.5 * (t3 - t2),
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

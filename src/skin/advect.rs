@@ -6,6 +6,7 @@
 //! CFL bound keeps |u|·dt under a voxel, so every departure point lies in a node's
 //! one-node halo.
 
+use crate::stencil::cubic_weights;
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
@@ -24,18 +25,6 @@ pub(crate) struct Scratch {
     low: Vec<[f32; BLOCK_NODES]>,
     high: Vec<[f32; BLOCK_NODES]>,
     out: Vec<[f32; BLOCK_NODES]>,
-}
-
-/// Catmull-Rom weights of the four nodes around a point at fraction `t` past the second.
-#[inline]
-pub(super) fn cubic_weights(t: f32) -> [f32; 4] {
-    let (t2, t3) = (t * t, t * t * t);
-    [
-        0.5 * (-t3 + 2.0 * t2 - t),
-        0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
-        0.5 * (-3.0 * t3 + 4.0 * t2 + t),
-        0.5 * (t3 - t2),
-    ]
 }
 
 /// Tricubic (Catmull-Rom) interpolation of the halo at local point `p` (each coordinate

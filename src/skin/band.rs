@@ -2,7 +2,7 @@
 //! (renormalisation), re-distances it for export, starts it. The tube's own upkeep (wake,
 //! retire) is the grid's: [`crate::grid::tube`].
 
-use glam::IVec3;
+use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::grid::{
@@ -62,11 +62,27 @@ pub(crate) fn renormalizing(
     }
 }
 
+/// How far (voxels) a node next to the skin may be from its exact distance, and its slope
+/// from 1, and keep its value through [`redistance`]. The exact distance to the mesh moves
+/// the skin by second-order terms, but always the same way — inward on convex parts, a
+/// curvature flow: settled every frame, a sphere spinning in a known flow sat 0.106 voxel
+/// inside the truth at α = 4, against 0.018 with such nodes kept as they are. The slope
+/// (central differences) sends the nodes of thin sheets, whose neighbours straddle both
+/// sides, to the exact distance, which checkLevelSet's eikonal test wants there.
+const KEPT_WITHIN: f32 = 0.1;
+
+/// |∇f| at local node `l` by central differences (f units per voxel).
+fn slope(halo: &Halo, l: IVec3) -> f32 {
+    let at = |n: IVec3| halo.at(n.x, n.y, n.z);
+    Vec3::from_array(IVec3::AXES.map(|e| 0.5 * (at(l + e) - at(l - e)))).length()
+}
+
 /// Makes the potential a signed distance next to the skin, for export: each node with an
 /// edge crossing takes `distance(halo, local node, bound)` (voxels: its exact distance to
-/// the skin's mesh, at most `bound`, its nearest crossing) with its sign. The nodes farther out
-/// already hold the renormalised distance from these. The skin moves by second-order
-/// terms only: on an edge crossed at t, distances t·c and (1−t)·c keep the crossing at t.
+/// the skin's mesh, at most `bound`, its nearest crossing) with its sign, unless it is
+/// within [`KEPT_WITHIN`] of it already, with a slope near 1. The nodes farther out already hold the
+/// renormalised distance from these. The skin moves by second-order terms only: on an
+/// edge crossed at t, distances t·c and (1−t)·c keep the crossing at t.
 pub(crate) fn redistance<P: Potential>(
     grid: &mut SparseGrid<P>,
     band_width: f32,
@@ -87,6 +103,11 @@ pub(crate) fn redistance<P: Potential>(
             return f; // not next to the skin
         }
         let d = (distance(halo, l, bound) / band_width).min(1.0);
+        if (f.abs() - d).abs() * band_width < KEPT_WITHIN
+            && (slope(halo, l) * band_width - 1.0).abs() < KEPT_WITHIN
+        {
+            return f;
+        }
         if d.is_finite() {
             f.signum() * d
         } else {

@@ -7,13 +7,13 @@
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
-use super::advect::cubic_weights;
 use super::{band, Skin};
 use crate::flow::FlowMap;
 use crate::grid::tube::Reach;
 use crate::grid::{
     block_of, node_offset, offset_coords, Potential, SparseGrid, AROUND, BLOCK_DIM, BLOCK_NODES,
 };
+use crate::stencil::cubic_weights;
 
 /// Catmull-Rom interpolation of `at` (node units → value) at `u`, limited to the values
 /// of the cell holding `u` (a cubic may overshoot them; the limiter never creates a new

@@ -2,6 +2,7 @@
 //! with an iso value.
 
 use super::{density_distance, Aabb, Target};
+use crate::stencil::cubic_weights;
 use crate::volume::{GridData, LEAF_VOXELS};
 use glam::{IVec3, Mat3, Vec3};
 use hashbrown::HashMap;
@@ -106,6 +107,64 @@ impl Sampler {
         self.background
     }
 
+    /// Catmull-Rom interpolation at `p`, limited to the values of its cell (the cubic may
+    /// overshoot them; the limiter never makes a new extremum). Trilinear reads of a
+    /// sampled distance put a convex surface inside by about Δx²κ/8 — on a sphere of 8
+    /// voxels a skin settled 0.016 voxel in. The 4³ taps come from at most eight leaves,
+    /// each looked up once.
+    fn tricubic(&self, p: Vec3) -> f32 {
+        let q = self.to_index * (p - self.origin);
+        let base = q.floor();
+        let t = q - base;
+        let b = base.as_ivec3();
+        let mut leaves: [(IVec3, Option<u32>); 8] = [(IVec3::MAX, None); 8];
+        let mut known = 0;
+        let mut tap = |ijk: IVec3| -> f32 {
+            let origin = ijk & !7;
+            let slot = leaves[..known].iter().position(|(o, _)| *o == origin);
+            let leaf = match slot {
+                Some(i) => leaves[i].1,
+                None => {
+                    let leaf = self.leaves.get(&origin).copied();
+                    if known < leaves.len() {
+                        leaves[known] = (origin, leaf);
+                        known += 1;
+                    }
+                    leaf
+                }
+            };
+            match leaf {
+                Some(leaf) => {
+                    let l = ijk & 7;
+                    self.values
+                        [leaf as usize * LEAF_VOXELS + ((l.x << 6) | (l.y << 3) | l.z) as usize]
+                }
+                None => self.voxel(ijk),
+            }
+        };
+        let (wx, wy, wz) = (cubic_weights(t.x), cubic_weights(t.y), cubic_weights(t.z));
+        let mut value = 0.0;
+        let (mut low, mut high) = (f32::INFINITY, f32::NEG_INFINITY);
+        for (i, wx) in wx.iter().enumerate() {
+            let mut plane = 0.0;
+            for (j, wy) in wy.iter().enumerate() {
+                let mut row = 0.0;
+                for (k, wz) in wz.iter().enumerate() {
+                    let step = IVec3::new(i as i32 - 1, j as i32 - 1, k as i32 - 1);
+                    let v = tap(b + step);
+                    if step.cmpge(IVec3::ZERO).all() && step.cmple(IVec3::ONE).all() {
+                        low = low.min(v);
+                        high = high.max(v);
+                    }
+                    row += wz * v;
+                }
+                plane += wy * row;
+            }
+            value += wx * plane;
+        }
+        value.clamp(low, high)
+    }
+
     fn trilinear(&self, p: Vec3) -> f32 {
         let q = self.to_index * (p - self.origin);
         let base = q.floor();
@@ -123,7 +182,8 @@ impl Sampler {
     }
 }
 
-/// A narrow-band level set: signed distance in world units, negative inside.
+/// A narrow-band level set: signed distance in world units, negative inside, read
+/// tricubically.
 pub struct LevelSetTarget {
     sampler: Sampler,
 }
@@ -138,7 +198,7 @@ impl LevelSetTarget {
 
 impl Target for LevelSetTarget {
     fn distance(&self, p: Vec3) -> f32 {
-        self.sampler.trilinear(p)
+        self.sampler.tricubic(p)
     }
     fn bounds(&self) -> Aabb {
         self.sampler.bounds
