@@ -1,4 +1,6 @@
-//! File output helpers shared by every writer.
+//! File formats (one module each) and the output helpers every writer shares.
+
+pub mod vtk;
 
 use std::path::{Path, PathBuf};
 

@@ -1,5 +1,5 @@
 //! Particle frames (paper §6.1): positions and optional radii read from PLY (ASCII or
-//! binary little/big endian), OpenVDB point data grids (`P`, `pscale`; through the
+//! binary little/big endian), legacy VTK (ASCII or binary), OpenVDB point data grids (`P`, `pscale`; through the
 //! bridge) or plain text (XYZ or CSV: `x y z [radius]` per line).
 
 use std::path::{Path, PathBuf};
@@ -38,6 +38,8 @@ pub enum Format {
     Ply,
     /// `x y z [radius]` per line, spaces or commas, optional header.
     Text,
+    /// Legacy VTK, ASCII or binary ([`crate::io::vtk`]).
+    Vtk,
 }
 
 /// Reads a frame by extension: `.ply`, `.vdb` (the first point data grid), or `.xyz` /
@@ -66,9 +68,10 @@ pub fn read(path: &Path) -> Result<Particles, ParticleError> {
     let format = match ext.as_deref() {
         Some("ply") => Format::Ply,
         Some("xyz" | "csv" | "txt") => Format::Text,
+        Some("vtk") => Format::Vtk,
         _ => {
             return Err(error(
-                "particle files must end in .ply, .vdb, .xyz, .csv or .txt".into(),
+                "particle files must end in .ply, .vtk, .vdb, .xyz, .csv or .txt".into(),
             ))
         }
     };
@@ -81,6 +84,35 @@ pub fn parse(bytes: &[u8], format: Format) -> Result<Particles, String> {
     check(match format {
         Format::Ply => read_ply(bytes)?,
         Format::Text => read_text(bytes)?,
+        Format::Vtk => read_vtk(bytes)?,
+    })
+}
+
+/// A legacy VTK file's points, with the point data simulators name velocity
+/// (SPlisHSPlasH `velocity`, DualSPHysics `Vel`), identity (`id`, `Idp`) and radius.
+fn read_vtk(bytes: &[u8]) -> Result<Particles, String> {
+    let points = crate::io::vtk::parse(bytes).map_err(|e| e.to_string())?;
+    let n = points.positions.len();
+    let column = |names: &[&str], components: usize| {
+        points
+            .array(names, components)
+            .filter(|a| a.values.len() == n * components)
+    };
+    Ok(Particles {
+        positions: points
+            .positions
+            .iter()
+            .map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32))
+            .collect(),
+        radii: column(&["radius", "pscale"], 1)
+            .map(|a| a.values.iter().map(|&r| r as f32).collect()),
+        velocities: column(&["velocity", "velocities", "vel", "v"], 3).map(|a| {
+            a.values
+                .chunks_exact(3)
+                .map(|v| Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32))
+                .collect()
+        }),
+        ids: column(&["id", "idp", "ids"], 1).map(|a| a.values.iter().map(|&i| i as i64).collect()),
     })
 }
 
