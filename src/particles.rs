@@ -1,5 +1,5 @@
 //! Particle frames (paper §6.1): positions and optional radii read from PLY (ASCII or
-//! binary little/big endian), legacy VTK (ASCII or binary), OpenVDB point data grids (`P`, `pscale`; through the
+//! binary little/big endian), legacy VTK (ASCII or binary), partio BGEO, OpenVDB point data grids (`P`, `pscale`; through the
 //! bridge) or plain text (XYZ or CSV: `x y z [radius]` per line).
 
 use std::path::{Path, PathBuf};
@@ -40,10 +40,12 @@ pub enum Format {
     Text,
     /// Legacy VTK, ASCII or binary ([`crate::io::vtk`]).
     Vtk,
+    /// Classic BGEO as partio writes it, gzipped or not ([`crate::io::bgeo`]).
+    Bgeo,
 }
 
-/// Reads a frame by extension: `.ply`, `.vdb` (the first point data grid), or `.xyz` /
-/// `.csv` / `.txt`.
+/// Reads a frame by extension: `.ply`, `.vtk`, `.bgeo` (`.bgeo.gz`), `.vdb` (the first
+/// point data grid), or `.xyz` / `.csv` / `.txt`.
 pub fn read(path: &Path) -> Result<Particles, ParticleError> {
     let error = |message: String| ParticleError {
         path: path.to_path_buf(),
@@ -69,9 +71,18 @@ pub fn read(path: &Path) -> Result<Particles, ParticleError> {
         Some("ply") => Format::Ply,
         Some("xyz" | "csv" | "txt") => Format::Text,
         Some("vtk") => Format::Vtk,
+        Some("bgeo" | "geo") => Format::Bgeo,
+        Some("gz")
+            if path
+                .to_string_lossy()
+                .to_ascii_lowercase()
+                .ends_with(".bgeo.gz") =>
+        {
+            Format::Bgeo
+        }
         _ => {
             return Err(error(
-                "particle files must end in .ply, .vtk, .vdb, .xyz, .csv or .txt".into(),
+                "particle files must end in .ply, .vtk, .bgeo, .vdb, .xyz, .csv or .txt".into(),
             ))
         }
     };
@@ -85,7 +96,68 @@ pub fn parse(bytes: &[u8], format: Format) -> Result<Particles, String> {
         Format::Ply => read_ply(bytes)?,
         Format::Text => read_text(bytes)?,
         Format::Vtk => read_vtk(bytes)?,
+        Format::Bgeo => read_bgeo(bytes)?,
     })
+}
+
+/// A gzipped frame inflates to at most this many times its size (float data compresses
+/// 1.2–6×): a bomb reads as truncated instead of filling the memory.
+const INFLATE_LIMIT: u64 = 256;
+
+/// A partio BGEO's points, with the attributes simulators name velocity (`v`, partio's
+/// and Houdini's; SPlisHSPlasH `velocity`), identity (`id`) and radius (`pscale`).
+fn read_bgeo(bytes: &[u8]) -> Result<Particles, String> {
+    let limit = (bytes.len() as u64)
+        .saturating_mul(INFLATE_LIMIT)
+        .max(1 << 20);
+    let points = crate::io::bgeo::parse(bytes, limit).map_err(|e| e.to_string())?;
+    let n = points.positions.len();
+    let column =
+        |names: &[&str], components: usize| column(&points.attributes, n, names, components);
+    let ids: Option<Vec<i64>> = column(&["id"], 1).map(|v| v.iter().map(|&i| i as i64).collect());
+    // pysplishsplash 2.19's partio export writes each particle's id into the bits of its x
+    // (y, z and the attributes are right): x cannot be had back.
+    if let Some(ids) = &ids {
+        let x_is_id = points
+            .positions
+            .iter()
+            .zip(ids)
+            .all(|(p, &id)| i64::from(p[0].to_bits()) == id);
+        if n > 1 && x_is_id {
+            return Err("every x holds the particle's id, not a coordinate (SPlisHSPlasH's partio export writes so); export VTK (enableVTKExport) instead".into());
+        }
+    }
+    Ok(Particles {
+        positions: points
+            .positions
+            .iter()
+            .map(|p| Vec3::from_array(*p))
+            .collect(),
+        radii: column(&["pscale", "radius"], 1).map(|v| v.iter().map(|&r| r as f32).collect()),
+        velocities: column(&["v", "velocity", "vel"], 3).map(vectors),
+        ids,
+    })
+}
+
+/// The values of the array called one of `names` with `components` components, when it has
+/// a row for each of the `n` points.
+fn column<'a>(
+    arrays: &'a [crate::io::PointArray],
+    n: usize,
+    names: &[&str],
+    components: usize,
+) -> Option<&'a [f64]> {
+    crate::io::find_array(arrays, names, components)
+        .filter(|a| a.values.len() == n * components)
+        .map(|a| a.values.as_slice())
+}
+
+/// Rows of three as vectors.
+fn vectors(values: &[f64]) -> Vec<Vec3> {
+    values
+        .chunks_exact(3)
+        .map(|v| Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32))
+        .collect()
 }
 
 /// A legacy VTK file's points, with the point data simulators name velocity
@@ -93,26 +165,16 @@ pub fn parse(bytes: &[u8], format: Format) -> Result<Particles, String> {
 fn read_vtk(bytes: &[u8]) -> Result<Particles, String> {
     let points = crate::io::vtk::parse(bytes).map_err(|e| e.to_string())?;
     let n = points.positions.len();
-    let column = |names: &[&str], components: usize| {
-        points
-            .array(names, components)
-            .filter(|a| a.values.len() == n * components)
-    };
+    let column = |names: &[&str], components: usize| column(&points.arrays, n, names, components);
     Ok(Particles {
         positions: points
             .positions
             .iter()
             .map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32))
             .collect(),
-        radii: column(&["radius", "pscale"], 1)
-            .map(|a| a.values.iter().map(|&r| r as f32).collect()),
-        velocities: column(&["velocity", "velocities", "vel", "v"], 3).map(|a| {
-            a.values
-                .chunks_exact(3)
-                .map(|v| Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32))
-                .collect()
-        }),
-        ids: column(&["id", "idp", "ids"], 1).map(|a| a.values.iter().map(|&i| i as i64).collect()),
+        radii: column(&["radius", "pscale"], 1).map(|v| v.iter().map(|&r| r as f32).collect()),
+        velocities: column(&["velocity", "velocities", "vel", "v"], 3).map(vectors),
+        ids: column(&["id", "idp", "ids"], 1).map(|v| v.iter().map(|&i| i as i64).collect()),
     })
 }
 

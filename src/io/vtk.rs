@@ -4,6 +4,8 @@
 //! ParaView (ASCII or binary, version 5.1 `OFFSETS`/`CONNECTIVITY` cells, `METADATA`).
 //! Only the points and their point data are kept; cells are read past.
 
+use super::PointArray;
+
 /// A legacy VTK file that cannot be read as points.
 #[derive(Debug, thiserror::Error)]
 pub enum VtkError {
@@ -22,25 +24,7 @@ pub enum VtkError {
 pub struct VtkPoints {
     /// x y z per point, as read (float or double).
     pub positions: Vec<[f64; 3]>,
-    /// Point-data arrays by name as written: components per point and values, row by row.
-    pub arrays: Vec<VtkArray>,
-}
-
-/// One point-data array.
-#[derive(Debug, Clone, PartialEq)]
-pub struct VtkArray {
-    pub name: String,
-    pub components: usize,
-    pub values: Vec<f64>,
-}
-
-impl VtkPoints {
-    /// The array called one of `names` (ASCII case ignored) with `components` components.
-    pub fn array(&self, names: &[&str], components: usize) -> Option<&VtkArray> {
-        self.arrays.iter().find(|a| {
-            a.components == components && names.iter().any(|n| a.name.eq_ignore_ascii_case(n))
-        })
-    }
+    pub arrays: Vec<PointArray>,
 }
 
 /// Reads the bytes of a legacy VTK file.
@@ -142,7 +126,7 @@ pub fn parse(bytes: &[u8]) -> Result<VtkPoints, VtkError> {
                     let n = components.checked_mul(tuples).ok_or_else(|| r.too_many())?;
                     let values = r.values(n, kind, w[0])?;
                     if in_point_data {
-                        out.arrays.push(VtkArray {
+                        out.arrays.push(PointArray {
                             name: w[0].to_string(),
                             components,
                             values,
@@ -187,7 +171,7 @@ pub fn parse(bytes: &[u8]) -> Result<VtkPoints, VtkError> {
                     &name,
                 )?;
                 if in_point_data {
-                    out.arrays.push(VtkArray {
+                    out.arrays.push(PointArray {
                         name,
                         components,
                         values,
@@ -382,6 +366,7 @@ impl Reader<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::find_array;
 
     fn be32(values: &[f32]) -> Vec<u8> {
         values.iter().flat_map(|v| v.to_be_bytes()).collect()
@@ -402,8 +387,14 @@ mod tests {
         b.push(b'\n');
         let p = parse(&b).unwrap();
         assert_eq!(p.positions, vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]);
-        assert_eq!(p.array(&["id"], 1).unwrap().values, vec![7.0, 9.0]);
-        assert_eq!(p.array(&["velocity"], 3).unwrap().values[4], -1.0);
+        assert_eq!(
+            find_array(&p.arrays, &["id"], 1).unwrap().values,
+            vec![7.0, 9.0]
+        );
+        assert_eq!(
+            find_array(&p.arrays, &["velocity"], 3).unwrap().values[4],
+            -1.0
+        );
     }
 
     #[test]
@@ -416,8 +407,11 @@ mod tests {
         assert_eq!(p.positions.len(), 3);
         assert_eq!(p.positions[2], [0.0, 1.0, 0.0]);
         assert_eq!(p.arrays.len(), 2, "the cell data is not kept");
-        assert_eq!(p.array(&["idp"], 1).unwrap().values, vec![5.0, 6.0, 7.0]);
-        assert_eq!(p.array(&["vel"], 3).unwrap().values[8], 1.0);
+        assert_eq!(
+            find_array(&p.arrays, &["idp"], 1).unwrap().values,
+            vec![5.0, 6.0, 7.0]
+        );
+        assert_eq!(find_array(&p.arrays, &["vel"], 3).unwrap().values[8], 1.0);
     }
 
     #[test]

@@ -1,7 +1,9 @@
-//! Legacy VTK particle files as SPlisHSPlasH writes them (`enableVTKExport`: binary
-//! big-endian, `id` as SCALARS, `velocity` in a FIELD, unpadded frame numbers), and the
-//! same frame rewritten by meshio (VTK 5.1, ASCII and binary): read alike, skinned end to
-//! end, broken files one line.
+//! Particle files as SPlisHSPlasH writes them, from one run of pysplishsplash 2.19
+//! (`data/sph/`): legacy VTK (`enableVTKExport`: binary big-endian, `id` as SCALARS,
+//! `velocity` in a FIELD) and partio BGEO (`enablePartioExport`: gzipped classic BGEO,
+//! whose x holds the id's bits — refused with one line saying so), unpadded frame
+//! numbers; and the VTK frame rewritten by meshio (VTK 5.1, ASCII and binary). Read
+//! alike, skinned end to end, broken files one line.
 
 mod common;
 
@@ -34,17 +36,39 @@ fn splishsplash_and_meshio_files_read_alike() {
         assert_eq!(other.positions, ours.positions, "{rewrite}");
         assert_eq!(other.velocities, ours.velocities, "{rewrite}");
     }
+    // The same frame exported through partio: its x holds the ids, which it names.
+    let partio = data("sph/bgeo/ParticleData_Fluid_2.bgeo");
+    let e = read(Path::new(&partio)).unwrap_err().to_string();
+    assert!(
+        e.contains("x holds the particle's id") && e.contains("VTK"),
+        "{e}"
+    );
+    let raw = std::fs::read(&partio).unwrap();
+    let points = activeskin::io::bgeo::parse(&raw, 1 << 24).unwrap();
+    for (i, (p, q)) in points.positions.iter().zip(&ours.positions).enumerate() {
+        assert_eq!([p[1], p[2]], [q.y, q.z]);
+        assert_eq!(i64::from(p[0].to_bits()), ids[i]);
+    }
+    let v = &activeskin::io::find_array(&points.attributes, &["velocity"], 3)
+        .unwrap()
+        .values;
+    assert_eq!(v[1] as f32, ours.velocities.as_ref().unwrap()[0].y);
 }
 
 #[cfg(feature = "vdb")]
 #[test]
 fn a_splishsplash_vtk_sequence_is_skinned() {
+    skinned("vtk/ParticleData_Fluid_#.vtk");
+}
+
+#[cfg(feature = "vdb")]
+fn skinned(pattern: &str) {
     let out = common::scratch();
     let mesh = out.path().join("s.####.obj");
     let result = common::activeskin(&[
         "particles",
         "--particles",
-        &data("sph/vtk/ParticleData_Fluid_#.vtk"),
+        &data(&format!("sph/{pattern}")),
         "--radius",
         "0.01",
         "--mesh",
@@ -56,12 +80,15 @@ fn a_splishsplash_vtk_sequence_is_skinned() {
     for f in 1..=3 {
         let m = common::read_mesh(&out.path().join(format!("s.{f:04}.obj"))).unwrap();
         let volume = m.area_and_volume().1 / (324.0 * 0.02f64.powi(3));
-        assert!((0.85..1.2).contains(&volume), "frame {f}: {volume}");
+        assert!(
+            (0.85..1.2).contains(&volume),
+            "{pattern} frame {f}: {volume}"
+        );
     }
 }
 
 #[test]
-fn a_cut_vtk_file_is_one_line() {
+fn cut_files_are_one_line() {
     let dir = common::scratch();
     let bytes = std::fs::read(data("sph/vtk/ParticleData_Fluid_1.vtk")).unwrap();
     for keep in [40, 2000, bytes.len() - 30] {
@@ -73,5 +100,22 @@ fn a_cut_vtk_file_is_one_line() {
             "{e}"
         );
         assert!(e.contains("ends inside"), "{keep}: {e}");
+    }
+    // A gzipped BGEO cut short, and inflated then cut.
+    let gz = std::fs::read(data("sph/bgeo/ParticleData_Fluid_1.bgeo")).unwrap();
+    let mut raw = Vec::new();
+    std::io::Read::read_to_end(&mut flate2::read::GzDecoder::new(&gz[..]), &mut raw).unwrap();
+    for (bytes, what) in [
+        (&gz[..gz.len() / 2], "gzip"),
+        (&raw[..raw.len() / 2], "ends inside"),
+    ] {
+        let path = dir.path().join("cut.bgeo");
+        std::fs::write(&path, bytes).unwrap();
+        let e = read(&path).unwrap_err().to_string();
+        assert!(
+            e.starts_with(path.to_str().unwrap()) && !e.contains('\n'),
+            "{e}"
+        );
+        assert!(e.contains(what), "{what}: {e}");
     }
 }
