@@ -42,10 +42,12 @@ pub enum Format {
     Vtk,
     /// Classic BGEO as partio writes it, gzipped or not ([`crate::io::bgeo`]).
     Bgeo,
+    /// splashsurf's JSON: `[[x, y, z], …]`.
+    Json,
 }
 
 /// Reads a frame by extension: `.ply`, `.vtk`, `.bgeo` (`.bgeo.gz`), `.vdb` (the first
-/// point data grid), or `.xyz` / `.csv` / `.txt`.
+/// point data grid), `.json` (splashsurf's), or `.xyz` / `.csv` / `.txt`.
 pub fn read(path: &Path) -> Result<Particles, ParticleError> {
     let error = |message: String| ParticleError {
         path: path.to_path_buf(),
@@ -72,6 +74,7 @@ pub fn read(path: &Path) -> Result<Particles, ParticleError> {
         Some("xyz" | "csv" | "txt") => Format::Text,
         Some("vtk") => Format::Vtk,
         Some("bgeo" | "geo") => Format::Bgeo,
+        Some("json") => Format::Json,
         Some("gz")
             if path
                 .to_string_lossy()
@@ -82,7 +85,8 @@ pub fn read(path: &Path) -> Result<Particles, ParticleError> {
         }
         _ => {
             return Err(error(
-                "particle files must end in .ply, .vtk, .bgeo, .vdb, .xyz, .csv or .txt".into(),
+                "particle files must end in .ply, .vtk, .bgeo, .vdb, .json, .xyz, .csv or .txt"
+                    .into(),
             ))
         }
     };
@@ -97,6 +101,17 @@ pub fn parse(bytes: &[u8], format: Format) -> Result<Particles, String> {
         Format::Text => read_text(bytes)?,
         Format::Vtk => read_vtk(bytes)?,
         Format::Bgeo => read_bgeo(bytes)?,
+        Format::Json => read_json(bytes)?,
+    })
+}
+
+/// splashsurf's JSON particle file: an array of `[x, y, z]` arrays.
+fn read_json(bytes: &[u8]) -> Result<Particles, String> {
+    let points: Vec<[f32; 3]> = serde_json::from_slice(bytes)
+        .map_err(|e| format!("not a JSON array of [x, y, z] points: {e}"))?;
+    Ok(Particles {
+        positions: points.into_iter().map(Vec3::from_array).collect(),
+        ..Particles::default()
     })
 }
 

@@ -1,13 +1,13 @@
 //! Frame-numbered file patterns, as DCCs write them: `name.####.vdb` (Houdini, zero-padded
 //! to the number of `#`), `name.%04d.vdb` (printf), `name.$F4.vdb` and `name.$F.vdb`
-//! (Houdini variables, `$F` unpadded).
+//! (Houdini variables, `$F` unpadded), `name_{}.vtk` (splashsurf's, unpadded).
 
 use std::path::PathBuf;
 
 /// A pattern that cannot be used.
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
 pub enum PatternError {
-    #[error("pattern '{0}' has no frame number (use ####, %04d, $F4 or $F)")]
+    #[error("pattern '{0}' has no frame number (use ####, %04d, $F4, $F or {{}})")]
     NoFrameNumber(String),
     #[error("pattern '{0}' has more than one frame number")]
     SeveralFrameNumbers(String),
@@ -163,6 +163,11 @@ fn frame_fields(pattern: &str) -> Vec<(usize, usize, Option<usize>)> {
                     i += 1;
                 }
             }
+            // splashsurf's `{}`: unpadded, as SPlisHSPlasH numbers its exports.
+            b'{' if bytes.get(i + 1) == Some(&b'}') => {
+                fields.push((i, i + 2, Some(1)));
+                i += 2;
+            }
             b'$' if bytes.get(i + 1) == Some(&b'F') => {
                 let (n, width) = digits_from(i + 2);
                 let width = if n == 0 {
@@ -240,6 +245,7 @@ mod tests {
             ("skin.%d.vdb", 7, "skin.7.vdb"),
             ("skin.$F4.vdb", 7, "skin.0007.vdb"),
             ("skin.$F.vdb", 7, "skin.7.vdb"),
+            ("ParticleData_Fluid_{}.vtk", 12, "ParticleData_Fluid_12.vtk"),
             ("skin_$F3_v2.obj", 12345, "skin_12345_v2.obj"),
             ("skin.####.vdb", -3, "skin.-0003.vdb"),
         ];

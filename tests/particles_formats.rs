@@ -119,3 +119,22 @@ fn cut_files_are_one_line() {
         assert!(e.contains(what), "{what}: {e}");
     }
 }
+
+#[test]
+fn splashsurfs_json_and_its_frame_pattern() {
+    let dir = common::scratch();
+    let vtk = frame("ParticleData_Fluid_2.vtk");
+    let json: Vec<[f32; 3]> = vtk.positions.iter().map(|p| p.to_array()).collect();
+    let path = dir.path().join("fluid_7.json");
+    std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
+    assert_eq!(read(&path).unwrap().positions, vtk.positions);
+    // splashsurf's `{}` names the unpadded frame.
+    let pattern = activeskin::sequence::FramePattern::parse(
+        dir.path().join("fluid_{}.json").to_str().unwrap(),
+    )
+    .unwrap();
+    assert_eq!(pattern.existing_frames().unwrap(), vec![7]);
+    std::fs::write(&path, "[[0, 1], [2, 3, 4]]").unwrap();
+    let e = read(&path).unwrap_err().to_string();
+    assert!(e.contains("[x, y, z]") && !e.contains('\n'), "{e}");
+}

@@ -43,7 +43,7 @@ impl InputFrames {
             }
             Err(PatternError::NoFrameNumber(_)) => {
                 return Err(FrameError::Usage(format!(
-                    "{flag} '{spec}': no such file, and no frame number for a sequence (use ####, %04d, $F4 or $F)"
+                    "{flag} '{spec}': no such file, and no frame number for a sequence (use ####, %04d, $F4, $F or {{}})"
                 )))
             }
             other => other.map_err(|e| FrameError::Usage(e.to_string()))?,
