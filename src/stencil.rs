@@ -1,7 +1,7 @@
 //! Finite-difference stencils on the potential (paper §4.4, eq. 4), in index units.
 
 use crate::grid::{Halo, HALO_DIM};
-use glam::Vec3;
+use glam::{IVec3, Vec3};
 
 /// The 3×3×3 neighbourhood of a node, read in place from its block's halo (copying its
 /// 27 values per node was 6 % of a step).
@@ -151,6 +151,45 @@ pub(crate) fn cubic_weights(t: f32) -> [f32; 4] {
         0.5 * (-3.0 * t3 + 4.0 * t2 + t),
         0.5 * (t3 - t2),
     ]
+}
+
+/// Catmull-Rom interpolation of `at` (node units → value) at `u`, limited to the values
+/// of the cell holding `u` (a cubic may overshoot them; the limiter never creates a new
+/// extremum, as the advection's). Fourth order where the values are smooth: trilinear
+/// reads would shrink every convex part by about κΔx²/8 (the carry's remap each frame,
+/// a level-set target's surface).
+#[inline]
+pub(crate) fn limited_tricubic(mut at: impl FnMut(IVec3) -> f32, u: Vec3) -> f32 {
+    let base = u.floor();
+    let t = u - base;
+    let base = base.as_ivec3();
+    // A cell of one value (most of the tube's outer nodes, at ±1) limits the cubic to it:
+    // its 56 other taps need not be read.
+    let first = at(base);
+    if (1..8).all(|k| at(base + IVec3::new(k >> 2, (k >> 1) & 1, k & 1)) == first) {
+        return first;
+    }
+    let (wx, wy, wz) = (cubic_weights(t.x), cubic_weights(t.y), cubic_weights(t.z));
+    let mut value = 0.0;
+    let (mut low, mut high) = (f32::INFINITY, f32::NEG_INFINITY);
+    for (i, wx) in wx.iter().enumerate() {
+        let mut plane = 0.0;
+        for (j, wy) in wy.iter().enumerate() {
+            let mut row = 0.0;
+            for (k, wz) in wz.iter().enumerate() {
+                let step = IVec3::new(i as i32 - 1, j as i32 - 1, k as i32 - 1);
+                let v = at(base + step);
+                if step.cmpge(IVec3::ZERO).all() && step.cmple(IVec3::ONE).all() {
+                    low = low.min(v);
+                    high = high.max(v);
+                }
+                row += wz * v;
+            }
+            plane += wy * row;
+        }
+        value += wx * plane;
+    }
+    value.clamp(low, high)
 }
 
 #[cfg(test)]

@@ -635,7 +635,8 @@ fn a_quiet_cache_is_followed_twice_closer_than_meshing_it() {
 
 /// Enright's sphere after `time` of the deformation of `period`: the flow is
 /// u₀(x)·cos(πt/T), so the material at p came from Φ(p, −s), s = T/π·sin(πt/T), Φ the
-/// flow of u₀ (RK4 steps of 0.02 at most). Its zero set is exact, its value no distance.
+/// flow of u₀ ([`Traced`]: RK4 steps of 0.02 at most). Its zero set is exact, its value
+/// no distance.
 struct EnrightShape {
     sphere: Sphere,
     s: f32,
@@ -655,24 +656,17 @@ impl EnrightShape {
 
 impl Target for EnrightShape {
     fn distance(&self, p: Vec3) -> f32 {
-        let u = |x: Vec3| {
-            Enright {
-                period: 1.0,
-                time: 0.0,
-            }
-            .velocity(x)
+        let steady = Enright {
+            period: 1.0,
+            time: 0.0,
         };
-        let n = (self.s / 0.02).ceil().max(1.0);
-        let h = -self.s / n;
-        let mut x = p;
-        for _ in 0..n as usize {
-            let k1 = u(x);
-            let k2 = u(x + 0.5 * h * k1);
-            let k3 = u(x + 0.5 * h * k2);
-            let k4 = u(x + h * k3);
-            x += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-        }
-        self.sphere.distance(x)
+        let back = Traced {
+            flow: &steady,
+            bounds: self.bounds(),
+            step: 0.02,
+        };
+        let from = activeskin::flow::FlowMap::departure(&back, p, self.s).unwrap();
+        self.sphere.distance(from)
     }
     fn bounds(&self) -> Aabb {
         Aabb {

@@ -13,45 +13,7 @@ use crate::grid::tube::Reach;
 use crate::grid::{
     block_of, node_offset, offset_coords, Potential, SparseGrid, AROUND, BLOCK_DIM, BLOCK_NODES,
 };
-use crate::stencil::cubic_weights;
-
-/// Catmull-Rom interpolation of `at` (node units → value) at `u`, limited to the values
-/// of the cell holding `u` (a cubic may overshoot them; the limiter never creates a new
-/// extremum, as the advection's). Fourth order where the potential is smooth: a linear
-/// remap would shrink every convex part by about κΔx²/8 a frame.
-#[inline]
-fn tricubic(at: impl Fn(IVec3) -> f32, u: Vec3) -> f32 {
-    let base = u.floor();
-    let t = u - base;
-    let base = base.as_ivec3();
-    // A cell of one value (most of the tube's outer nodes, at ±1) limits the cubic to it:
-    // its 56 other taps need not be read.
-    let first = at(base);
-    if (1..8).all(|k| at(base + IVec3::new(k >> 2, (k >> 1) & 1, k & 1)) == first) {
-        return first;
-    }
-    let (wx, wy, wz) = (cubic_weights(t.x), cubic_weights(t.y), cubic_weights(t.z));
-    let mut value = 0.0;
-    let (mut low, mut high) = (f32::INFINITY, f32::NEG_INFINITY);
-    for (i, wx) in wx.iter().enumerate() {
-        let mut plane = 0.0;
-        for (j, wy) in wy.iter().enumerate() {
-            let mut row = 0.0;
-            for (k, wz) in wz.iter().enumerate() {
-                let step = IVec3::new(i as i32 - 1, j as i32 - 1, k as i32 - 1);
-                let v = at(base + step);
-                if step.cmpge(IVec3::ZERO).all() && step.cmple(IVec3::ONE).all() {
-                    low = low.min(v);
-                    high = high.max(v);
-                }
-                row += wz * v;
-            }
-            plane += wy * row;
-        }
-        value += wx * plane;
-    }
-    value.clamp(low, high)
-}
+use crate::stencil::limited_tricubic;
 
 /// A box of the old grid's nodes, copied once for the nodes of a new block whose
 /// departure points all lie in it: their 4³ stencils then read without hashing.
@@ -150,8 +112,8 @@ fn carry_blocks<P: Potential>(
             }
             for (v, u) in block.values.iter_mut().zip(from.iter()) {
                 let f = match u {
-                    Some(u) if windowed => tricubic(|ijk| window.at(ijk), *u),
-                    Some(u) => tricubic(|ijk| old.value(ijk), *u),
+                    Some(u) if windowed => limited_tricubic(|ijk| window.at(ijk), *u),
+                    Some(u) => limited_tricubic(|ijk| old.value(ijk), *u),
                     None => 1.0,
                 };
                 *v = P::from_f32(f.clamp(-1.0, 1.0));

@@ -2,7 +2,7 @@
 //! with an iso value.
 
 use super::{density_distance, Aabb, Target};
-use crate::stencil::cubic_weights;
+use crate::stencil::limited_tricubic;
 use crate::volume::{GridData, LEAF_VOXELS};
 use glam::{IVec3, Mat3, Vec3};
 use hashbrown::HashMap;
@@ -107,19 +107,14 @@ impl Sampler {
         self.background
     }
 
-    /// Catmull-Rom interpolation at `p`, limited to the values of its cell (the cubic may
-    /// overshoot them; the limiter never makes a new extremum). Trilinear reads of a
-    /// sampled distance put a convex surface inside by about Δx²κ/8 — on a sphere of 8
-    /// voxels a skin settled 0.016 voxel in. The 4³ taps come from at most eight leaves,
-    /// each looked up once.
+    /// [`limited_tricubic`] at `p`: trilinear reads of a sampled distance put a convex
+    /// surface inside by about Δx²κ/8 — on a sphere of 8 voxels a skin settled 0.016 voxel
+    /// in. The 4³ taps come from at most eight leaves, each looked up once.
     fn tricubic(&self, p: Vec3) -> f32 {
         let q = self.to_index * (p - self.origin);
-        let base = q.floor();
-        let t = q - base;
-        let b = base.as_ivec3();
         let mut leaves: [(IVec3, Option<u32>); 8] = [(IVec3::MAX, None); 8];
         let mut known = 0;
-        let mut tap = |ijk: IVec3| -> f32 {
+        let tap = |ijk: IVec3| -> f32 {
             let origin = ijk & !7;
             let slot = leaves[..known].iter().position(|(o, _)| *o == origin);
             let leaf = match slot {
@@ -142,27 +137,7 @@ impl Sampler {
                 None => self.voxel(ijk),
             }
         };
-        let (wx, wy, wz) = (cubic_weights(t.x), cubic_weights(t.y), cubic_weights(t.z));
-        let mut value = 0.0;
-        let (mut low, mut high) = (f32::INFINITY, f32::NEG_INFINITY);
-        for (i, wx) in wx.iter().enumerate() {
-            let mut plane = 0.0;
-            for (j, wy) in wy.iter().enumerate() {
-                let mut row = 0.0;
-                for (k, wz) in wz.iter().enumerate() {
-                    let step = IVec3::new(i as i32 - 1, j as i32 - 1, k as i32 - 1);
-                    let v = tap(b + step);
-                    if step.cmpge(IVec3::ZERO).all() && step.cmple(IVec3::ONE).all() {
-                        low = low.min(v);
-                        high = high.max(v);
-                    }
-                    row += wz * v;
-                }
-                plane += wy * row;
-            }
-            value += wx * plane;
-        }
-        value.clamp(low, high)
+        limited_tricubic(tap, q)
     }
 
     fn trilinear(&self, p: Vec3) -> f32 {
