@@ -10,7 +10,7 @@ use std::time::Instant;
 use activeskin::mesh::{mean_distance, Mesh};
 use activeskin::particles::flicker::jittered;
 use activeskin::skin::{Skin, SkinParams, SpeedParams};
-use activeskin::target::{fluid_iso, rest_density, Density, DensityGrid};
+use activeskin::target::{fluid_iso, Density, DensityGrid};
 use glam::{IVec3, Vec3};
 
 fn main() {
@@ -32,7 +32,7 @@ fn main() {
                 2.0 * l * r,
                 fluid_iso(l),
             )
-            .normalized(rest_density(l));
+            .normalized(l);
             DensityGrid::rasterize(&density, r)
         };
         let params = SkinParams {

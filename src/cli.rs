@@ -56,7 +56,7 @@ enum Command {
     Validate(validate::ValidateArgs),
     /// Ours and OpenVDB side by side: step throughput, meshing, memory, scaling.
     Bench(bench::BenchArgs),
-    /// The built-in demo: the Fig. 7 morph and a moving target, written to ./out.
+    /// The built-in demo: the Fig. 7 morph, a moving target and a particle splash, written to ./out.
     Demo(demo::DemoArgs),
     /// Mesh a level set (or a fog volume at --iso) with activeskin's polygonizer.
     Mesh(mesh::MeshArgs),
@@ -88,11 +88,49 @@ pub fn pattern_arg(spec: &str) -> anyhow::Result<activeskin::sequence::FramePatt
     activeskin::sequence::FramePattern::parse(spec).map_err(bad_usage)
 }
 
+/// clap's message about a command line in one line: its `error:` line and its tip,
+/// pointing to `--help` for the rest (its usage block).
+fn one_line_usage(message: &str) -> String {
+    let mut lines = message.lines().map(str::trim).filter(|l| !l.is_empty());
+    let mut first = lines
+        .next()
+        .unwrap_or("bad command line")
+        .trim_start_matches("error:")
+        .trim()
+        .to_string();
+    // "the following required arguments were not provided:" lists them below.
+    let mut rest = lines.peekable();
+    if first.ends_with(':') {
+        let mut listed = Vec::new();
+        while let Some(l) = rest.next_if(|l| !l.starts_with("Usage:") && !l.starts_with("tip:")) {
+            listed.push(l);
+        }
+        first = format!("{first} {}", listed.join(", "));
+    }
+    match rest.find_map(|l| l.strip_prefix("tip:")) {
+        Some(tip) => format!("{first} ({}); see --help", tip.trim()),
+        None => format!("{first}; see --help"),
+    }
+}
+
 /// Runs the command line; exit code 0 on success, 1 on bad data, 2 on bad usage.
 pub fn run() -> ExitCode {
-    let cli = match Cli::from_arg_matches(&command_line().get_matches()) {
+    let matches = command_line()
+        .try_get_matches()
+        .and_then(|m| Cli::from_arg_matches(&m));
+    let cli = match matches {
         Ok(cli) => cli,
-        Err(e) => e.exit(),
+        // Help and version as clap prints them; a mistake in one line, as every error.
+        Err(e)
+            if !e.use_stderr()
+                || e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand =>
+        {
+            e.exit()
+        }
+        Err(e) => {
+            eprintln!("activeskin: error: {}", one_line_usage(&e.to_string()));
+            return ExitCode::from(2);
+        }
     };
     let result = match cli.command {
         Command::Info { files } => info::run(&files),

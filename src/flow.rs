@@ -51,6 +51,11 @@ pub trait FlowMap: Sync {
     fn departure(&self, p: Vec3, duration: f32) -> Option<Vec3>;
     /// Where the material is now.
     fn bounds(&self) -> Aabb;
+    /// Boxes that together hold the material now: by default its bounds
+    /// ([`crate::target::Target::parts`]).
+    fn parts(&self) -> Vec<Aabb> {
+        vec![self.bounds()]
+    }
 }
 
 impl<F: FlowMap + ?Sized + Send> FlowMap for std::sync::Arc<F> {
@@ -59,6 +64,9 @@ impl<F: FlowMap + ?Sized + Send> FlowMap for std::sync::Arc<F> {
     }
     fn bounds(&self) -> Aabb {
         (**self).bounds()
+    }
+    fn parts(&self) -> Vec<Aabb> {
+        (**self).parts()
     }
 }
 

@@ -10,15 +10,20 @@
 
 mod inputs;
 mod outputs;
+mod particle_run;
+#[cfg(feature = "vdb")]
+mod targets;
 
 use std::time::Instant;
 
-pub use inputs::{
-    background_outside, check_transform, check_usable, not_finite, read_target, read_target_in,
-    InputFrames, ParticleFrame, ParticleInput, ScaleEstimate, TargetRead, TargetUnits,
-    VelocityInput, VelocitySource, VELOCITY_NAMES,
-};
+pub use inputs::{InputFrames, ParticleFrame, ParticleInput};
 pub use outputs::{OutputSpec, Outputs, Progress};
+pub use particle_run::ParticleRun;
+#[cfg(feature = "vdb")]
+pub use targets::{
+    background_outside, check_transform, check_usable, not_finite, read_target, read_target_in,
+    ScaleEstimate, TargetRead, TargetUnits, VelocityInput, VelocitySource, VELOCITY_NAMES,
+};
 
 use crate::flow::{Flow, FlowMap, Timing};
 use crate::mesh::MeshError;
@@ -27,11 +32,13 @@ use crate::render::RenderError;
 use crate::sequence::PatternError;
 use crate::skin::{AnySkin, SkinError};
 use crate::target::Target;
+#[cfg(feature = "vdb")]
 use crate::vdb::{Grid, VdbError};
 
 /// Why a run stopped. Every message is one line naming the file at fault.
 #[derive(Debug, thiserror::Error)]
 pub enum FrameError {
+    #[cfg(feature = "vdb")]
     #[error(transparent)]
     Vdb(#[from] VdbError),
     #[error(transparent)]
@@ -92,9 +99,13 @@ pub fn run<'t>(
     outputs: &mut Outputs,
     mut input_at: impl FnMut(i64) -> Result<FrameInput<'t>, FrameError>,
 ) -> Result<(), FrameError> {
+    // Moved on by a resume, which needs OpenVDB.
+    #[cfg_attr(not(feature = "vdb"), allow(unused_mut))]
     let mut start = first;
     skin.limit_substeps(Some(crate::skin::MAX_SUBSTEPS));
     outputs.frame_camera(skin.mesh());
+    // Without OpenVDB there is no --out to resume from (Outputs refuses it).
+    #[cfg(feature = "vdb")]
     if outputs.resume() {
         if let Some((frame, path)) = (write_from.max(first)..=last)
             .rev()

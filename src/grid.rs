@@ -19,6 +19,11 @@ pub(crate) use halo::{Halo, InsideRows, WideHalo, HALO_DIM, WIDE_DIM};
 
 /// Nodes along a block edge.
 pub const BLOCK_DIM: i32 = 8;
+
+/// How far from the origin (in voxels) the grid places anything: 2²⁰ voxels, where a
+/// 32-bit coordinate still resolves an eighth of a voxel. Farther, positions snap to a
+/// coarser lattice than the grid's and surfaces break up.
+pub const REACH_VOXELS: f32 = (1 << 20) as f32;
 /// Nodes per block, in OpenVDB's leaf order: offset = x << 6 | y << 3 | z.
 pub(crate) const BLOCK_NODES: usize = 512;
 

@@ -2,6 +2,7 @@
 
 pub mod bgeo;
 pub mod vtk;
+pub mod vtu;
 
 /// A per-point array read from a particle file: its name as written, components per point
 /// and values row by row (integers as floats, exact up to 2⁵³).

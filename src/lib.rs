@@ -36,7 +36,6 @@
 //! ```
 
 pub mod flow;
-#[cfg(feature = "vdb")]
 pub mod frames;
 pub mod grid;
 pub mod io;

@@ -1,6 +1,7 @@
 //! Particle frames (paper §6.1): positions and optional radii read from PLY (ASCII or
-//! binary little/big endian), legacy VTK (ASCII or binary), partio BGEO, OpenVDB point data grids (`P`, `pscale`; through the
-//! bridge) or plain text (XYZ or CSV: `x y z [radius]` per line).
+//! binary little/big endian), legacy VTK (ASCII or binary), VTK XML (`.vtu`, `.vtp`,
+//! `.pvtu`), partio BGEO, OpenVDB point data grids (`P`, `pscale`; through the bridge) or
+//! plain text (XYZ or CSV: `x y z [radius]` per line).
 
 use std::path::{Path, PathBuf};
 
@@ -40,14 +41,17 @@ pub enum Format {
     Text,
     /// Legacy VTK, ASCII or binary ([`crate::io::vtk`]).
     Vtk,
+    /// VTK XML points, `.vtu` or `.vtp` ([`crate::io::vtu`]).
+    Vtu,
     /// Classic BGEO as partio writes it, gzipped or not ([`crate::io::bgeo`]).
     Bgeo,
     /// splashsurf's JSON: `[[x, y, z], …]`.
     Json,
 }
 
-/// Reads a frame by extension: `.ply`, `.vtk`, `.bgeo` (`.bgeo.gz`), `.vdb` (the first
-/// point data grid), `.json` (splashsurf's), or `.xyz` / `.csv` / `.txt`.
+/// Reads a frame by extension: `.ply`, `.vtk`, `.vtu` / `.vtp` (and `.pvtu` / `.pvtp`,
+/// every piece file they list), `.bgeo` (`.bgeo.gz`), `.vdb` (the first point data grid),
+/// `.json` (splashsurf's), or `.xyz` / `.csv` / `.txt`.
 pub fn read(path: &Path) -> Result<Particles, ParticleError> {
     let error = |message: String| ParticleError {
         path: path.to_path_buf(),
@@ -69,8 +73,12 @@ pub fn read(path: &Path) -> Result<Particles, ParticleError> {
             "VDB point files need activeskin built with the `vdb` feature".into(),
         ));
     }
+    if matches!(ext.as_deref(), Some("pvtu" | "pvtp")) {
+        return read_pieces(path).map_err(error);
+    }
     let format = match ext.as_deref() {
         Some("ply") => Format::Ply,
+        Some("vtu" | "vtp") => Format::Vtu,
         Some("xyz" | "csv" | "txt") => Format::Text,
         Some("vtk") => Format::Vtk,
         Some("bgeo" | "geo") => Format::Bgeo,
@@ -85,7 +93,7 @@ pub fn read(path: &Path) -> Result<Particles, ParticleError> {
         }
         _ => {
             return Err(error(
-                "particle files must end in .ply, .vtk, .bgeo, .vdb, .json, .xyz, .csv or .txt"
+                "particle files must end in .ply, .vtk, .vtu, .vtp, .pvtu, .bgeo, .vdb, .json, .xyz, .csv or .txt"
                     .into(),
             ))
         }
@@ -100,6 +108,7 @@ pub fn parse(bytes: &[u8], format: Format) -> Result<Particles, String> {
         Format::Ply => read_ply(bytes)?,
         Format::Text => read_text(bytes)?,
         Format::Vtk => read_vtk(bytes)?,
+        Format::Vtu => read_vtu(bytes)?,
         Format::Bgeo => read_bgeo(bytes)?,
         Format::Json => read_json(bytes)?,
     })
@@ -125,7 +134,7 @@ fn read_bgeo(bytes: &[u8]) -> Result<Particles, String> {
     let limit = (bytes.len() as u64)
         .saturating_mul(INFLATE_LIMIT)
         .max(1 << 20);
-    let points = crate::io::bgeo::parse(bytes, limit).map_err(|e| e.to_string())?;
+    let points = crate::io::bgeo::parse(bytes, limit).map_err(|e| error_chain(&e))?;
     let n = points.positions.len();
     let column =
         |names: &[&str], components: usize| column(&points.attributes, n, names, components);
@@ -179,18 +188,113 @@ fn vectors(values: &[f64]) -> Vec<Vec3> {
 /// (SPlisHSPlasH `velocity`, DualSPHysics `Vel`), identity (`id`, `Idp`) and radius.
 fn read_vtk(bytes: &[u8]) -> Result<Particles, String> {
     let points = crate::io::vtk::parse(bytes).map_err(|e| e.to_string())?;
-    let n = points.positions.len();
-    let column = |names: &[&str], components: usize| column(&points.arrays, n, names, components);
-    Ok(Particles {
-        positions: points
-            .positions
+    Ok(from_arrays(&points.positions, &points.arrays))
+}
+
+/// A VTK XML file's points (every piece), with the point data named as in legacy VTK.
+fn read_vtu(bytes: &[u8]) -> Result<Particles, String> {
+    let limit = (bytes.len() as u64)
+        .saturating_mul(INFLATE_LIMIT)
+        .max(1 << 20);
+    let points = crate::io::vtu::parse(bytes, limit).map_err(|e| error_chain(&e))?;
+    Ok(from_arrays(&points.positions, &points.arrays))
+}
+
+/// A parallel `.pvtu`/`.pvtp`: the points of every piece file it lists, in order, with
+/// the attributes every piece has.
+fn read_pieces(path: &Path) -> Result<Particles, String> {
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    let sources = crate::io::vtu::piece_sources(&bytes).map_err(|e| error_chain(&e))?;
+    if sources.is_empty() {
+        return Err("lists no <Piece Source=...> files".into());
+    }
+    let folder = path.parent().unwrap_or(Path::new(""));
+    let mut all = Particles::default();
+    for (k, source) in sources.iter().enumerate() {
+        let piece = folder.join(source);
+        let part = std::fs::read(&piece)
+            .map_err(|e| e.to_string())
+            .and_then(|b| read_vtu(&b))
+            .and_then(check)
+            .map_err(|e| format!("piece {}: {e}", piece.display()))?;
+        if k == 0 {
+            all = part;
+            continue;
+        }
+        fn join<T: Clone>(a: &mut Option<Vec<T>>, b: Option<Vec<T>>) {
+            match (a.as_mut(), b) {
+                (Some(a), Some(b)) => a.extend(b),
+                _ => *a = None,
+            }
+        }
+        all.positions.extend(part.positions);
+        join(&mut all.radii, part.radii);
+        join(&mut all.velocities, part.velocities);
+        join(&mut all.ids, part.ids);
+    }
+    Ok(all)
+}
+
+/// An error with its causes, `error: cause: cause`.
+fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(cause) = source {
+        text = format!("{text}: {cause}");
+        source = cause.source();
+    }
+    text
+}
+
+/// Particles from positions and the point-data arrays simulators name velocity
+/// (SPlisHSPlasH `velocity`, DualSPHysics `Vel`), identity (`id`, `Idp`) and radius.
+fn from_arrays(positions: &[[f64; 3]], arrays: &[crate::io::PointArray]) -> Particles {
+    let n = positions.len();
+    let column = |names: &[&str], components: usize| column(arrays, n, names, components);
+    Particles {
+        positions: positions
             .iter()
             .map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32))
             .collect(),
         radii: column(&["radius", "pscale"], 1).map(|v| v.iter().map(|&r| r as f32).collect()),
         velocities: column(&["velocity", "velocities", "vel", "v"], 3).map(vectors),
         ids: column(&["id", "idp", "ids"], 1).map(|v| v.iter().map(|&i| i as i64).collect()),
-    })
+    }
+}
+
+impl Particles {
+    /// Whether every particle lies within `reach` of the origin on each axis.
+    pub fn within(&self, reach: f32) -> bool {
+        self.positions
+            .iter()
+            .all(|p| p.abs().max_element() <= reach)
+    }
+
+    /// Leaves out the particles with a coordinate beyond `reach` of the origin, with their
+    /// radii, velocities and ids; returns how many.
+    pub fn keep_within(&mut self, reach: f32) -> usize {
+        if self.within(reach) {
+            return 0;
+        }
+        let inside = |p: &Vec3| p.abs().max_element() <= reach;
+        let keep: Vec<bool> = self.positions.iter().map(inside).collect();
+        fn filter<T>(values: &mut Vec<T>, keep: &[bool]) {
+            let mut k = keep.iter();
+            values.retain(|_| *k.next().unwrap_or(&true));
+        }
+        let before = self.positions.len();
+        filter(&mut self.positions, &keep);
+        if let Some(r) = &mut self.radii {
+            filter(r, &keep);
+        }
+        if let Some(v) = &mut self.velocities {
+            filter(v, &keep);
+        }
+        if let Some(ids) = &mut self.ids {
+            filter(ids, &keep);
+        }
+        before - self.positions.len()
+    }
 }
 
 fn check(particles: Particles) -> Result<Particles, String> {
@@ -253,49 +357,182 @@ fn read_vdb(path: &Path) -> Result<Particles, crate::vdb::VdbError> {
     })
 }
 
+/// Text particles: `x y z [radius]` per line (spaces, commas or semicolons), or a CSV
+/// whose header names its columns in any order — `x y z`, ParaView's `Points:0`,
+/// DualSPHysics' `Pos.x [m]`, `position_x`, …; radius (`radius`, `pscale`), velocity
+/// (`vx`, `velocity:0`, `Vel.x`, `v_x`, …) and id (`id`, `Idp`) read by name, other
+/// columns ignored.
 fn read_text(bytes: &[u8]) -> Result<Particles, String> {
     let text = std::str::from_utf8(bytes).map_err(|_| "not a text file".to_string())?;
-    let mut positions = Vec::new();
-    let mut radii = Vec::new();
-    for (n, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let fields: Vec<&str> = line
-            .split(|c: char| c == ',' || c.is_whitespace())
-            .filter(|f| !f.is_empty())
-            .collect();
-        let numbers: Result<Vec<f32>, _> = fields.iter().map(|f| f.parse::<f32>()).collect();
-        let numbers = match numbers {
-            // A CSV header line.
-            Err(_) if positions.is_empty() && n == 0 => continue,
-            Err(_) => return Err(format!("line {}: not numbers: '{line}'", n + 1)),
-            Ok(v) => v,
+    // Commas, semicolons or tabs when the line has any (names may hold spaces:
+    // `Pos.x [m]`), else spaces.
+    let split = |line: &str| -> Vec<String> {
+        let fields: Vec<&str> = if line.contains([',', ';', '\t']) {
+            line.split([',', ';', '\t']).collect()
+        } else {
+            line.split_whitespace().collect()
         };
-        match numbers.len() {
-            3 => positions.push(Vec3::from_slice(&numbers)),
-            4 => {
-                positions.push(Vec3::from_slice(&numbers[..3]));
-                radii.push(numbers[3]);
+        fields
+            .into_iter()
+            .map(|f| f.trim().to_string())
+            .filter(|f| !f.is_empty())
+            .collect()
+    };
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(n, l)| (n + 1, l.trim()))
+        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+    let mut first = lines.next();
+    // A header: its first line is not all numbers.
+    let columns = match first {
+        Some((_, line)) if split(line).iter().any(|f| f.parse::<f64>().is_err()) => {
+            let names = split(line);
+            first = None;
+            Some(
+                Columns::from_header(&names)
+                    .ok_or_else(|| format!("the header names no x, y and z columns: '{line}'"))?,
+            )
+        }
+        _ => None,
+    };
+    let mut out = Particles::default();
+    let (mut radii, mut velocities, mut ids) = (Vec::new(), Vec::new(), Vec::new());
+    for (n, line) in first.into_iter().chain(lines) {
+        let fields = split(line);
+        let numbers: Vec<f64> = fields
+            .iter()
+            .map(|f| f.trim_matches('"').parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| format!("line {n}: not numbers: '{line}'"))?;
+        let at = |k: usize| numbers[k] as f32;
+        match &columns {
+            Some(c) => {
+                if numbers.len() < c.width {
+                    return Err(format!(
+                        "line {n}: {} numbers, the header names {} columns",
+                        numbers.len(),
+                        c.width
+                    ));
+                }
+                out.positions.push(Vec3::new(at(c.x[0]), at(c.x[1]), at(c.x[2])));
+                if let Some(k) = c.radius {
+                    radii.push(at(k));
+                }
+                if let Some(v) = c.velocity {
+                    velocities.push(Vec3::new(at(v[0]), at(v[1]), at(v[2])));
+                }
+                if let Some(k) = c.id {
+                    ids.push(numbers[k] as i64);
+                }
             }
-            k => {
-                return Err(format!(
-                    "line {}: {k} numbers, expected x y z [radius]",
-                    n + 1
-                ))
-            }
+            None => match numbers.len() {
+                3 => out.positions.push(Vec3::new(at(0), at(1), at(2))),
+                4 => {
+                    out.positions.push(Vec3::new(at(0), at(1), at(2)));
+                    radii.push(at(3));
+                }
+                k => {
+                    return Err(format!(
+                        "line {n}: {k} numbers, expected x y z [radius] (or a header naming the columns)"
+                    ))
+                }
+            },
         }
     }
-    if !radii.is_empty() && radii.len() != positions.len() {
+    if !radii.is_empty() && radii.len() != out.positions.len() {
         return Err("some lines have a radius and others not".into());
     }
-    Ok(Particles {
-        positions,
-        radii: (!radii.is_empty()).then_some(radii),
-        velocities: None,
-        ids: None,
-    })
+    out.radii = (!radii.is_empty()).then_some(radii);
+    out.velocities = (!velocities.is_empty()).then_some(velocities);
+    out.ids = (!ids.is_empty()).then_some(ids);
+    Ok(out)
+}
+
+/// Where a CSV header puts the columns read.
+#[derive(Debug, PartialEq)]
+struct Columns {
+    x: [usize; 3],
+    radius: Option<usize>,
+    velocity: Option<[usize; 3]>,
+    id: Option<usize>,
+    /// Columns a row must have: one past the last read.
+    width: usize,
+}
+
+impl Columns {
+    fn from_header(names: &[String]) -> Option<Columns> {
+        // Each name as (base, component): `Points:0` → ("points", 0), `Pos.x [m]` →
+        // ("pos", 0), `vx` → ("v", 0), `x` → ("", 0), `radius` → ("radius", none).
+        let parsed: Vec<(String, Option<usize>)> = names.iter().map(|n| name_parts(n)).collect();
+        let find = |bases: &[&str], component: Option<usize>| {
+            parsed
+                .iter()
+                .position(|(b, c)| *c == component && bases.contains(&b.as_str()))
+        };
+        let vector = |bases: &[&str]| -> Option<[usize; 3]> {
+            Some([
+                find(bases, Some(0))?,
+                find(bases, Some(1))?,
+                find(bases, Some(2))?,
+            ])
+        };
+        let x = vector(&["", "p", "pos", "position", "points", "point", "coords"])?;
+        let radius = find(&["radius", "pscale", "r"], None);
+        let velocity = vector(&["v", "vel", "velocity", "velocities"]);
+        let id = find(&["id", "idp", "pid", "ids"], None);
+        let width = x
+            .iter()
+            .chain(velocity.iter().flatten())
+            .chain(radius.iter())
+            .chain(id.iter())
+            .max()
+            .map_or(0, |&k| k + 1);
+        Some(Columns {
+            x,
+            radius,
+            velocity,
+            id,
+            width,
+        })
+    }
+}
+
+/// A column name's base and component, lowercased, quotes and units (`[m]`, `(m/s)`)
+/// dropped.
+fn name_parts(name: &str) -> (String, Option<usize>) {
+    let mut n = name.trim().trim_matches('"').to_ascii_lowercase();
+    if let Some(cut) = n.find(['[', '(']).filter(|&k| k > 0) {
+        // `p[0]` keeps its index; `Pos.x [m]` loses its unit.
+        let inner = n[cut + 1..].trim_end_matches([']', ')']);
+        if let Ok(k) = inner.parse::<usize>() {
+            return (n[..cut].trim().to_string(), (k < 3).then_some(k));
+        }
+        n.truncate(cut);
+    }
+    let n = n.trim();
+    let axis = |c: &str| match c {
+        "x" | "0" => Some(0),
+        "y" | "1" => Some(1),
+        "z" | "2" => Some(2),
+        _ => None,
+    };
+    for sep in [':', '.', '_'] {
+        if let Some((base, c)) = n.rsplit_once(sep) {
+            if let Some(k) = axis(c) {
+                return (base.to_string(), Some(k));
+            }
+        }
+    }
+    // `x`, `vx`, `px`: a one-letter base and an axis letter.
+    match n.len() {
+        1 if axis(n).is_some() && n.chars().all(char::is_alphabetic) => (String::new(), axis(n)),
+        2 => match axis(&n[1..]).filter(|_| n[1..].chars().all(char::is_alphabetic)) {
+            Some(k) => (n[..1].to_string(), Some(k)),
+            None => (n.to_string(), None),
+        },
+        _ => (n.to_string(), None),
+    }
 }
 
 /// A PLY element: name, count, properties (name, type).
@@ -365,6 +602,13 @@ fn read_ply(bytes: &[u8]) -> Result<Particles, String> {
                 let element = elements.last_mut().ok_or("property before any element")?;
                 if type_size(ty).is_none() {
                     return Err(format!("property {name}: unknown type '{ty}'"));
+                }
+                // Which of two would be meant cannot be known.
+                if element.2.iter().any(|(n, _)| n == name) {
+                    return Err(format!(
+                        "property {name} appears twice in element {}",
+                        element.0
+                    ));
                 }
                 element.2.push((name.to_string(), ty.to_string()));
             }
@@ -508,6 +752,44 @@ mod tests {
     use super::*;
 
     #[test]
+    fn csv_headers_name_the_columns_in_any_order() {
+        let p = |text: &str| read_text(text.as_bytes());
+        // Swapped axes and extra columns, read by name.
+        let swapped = p("z,y,x,density\n3,2,1,1000\n6,5,4,999\n").unwrap();
+        assert_eq!(
+            swapped.positions,
+            vec![Vec3::new(1.0, 2.0, 3.0), Vec3::new(4.0, 5.0, 6.0)]
+        );
+        assert_eq!(swapped.radii, None);
+        let ids = p("id,x,y,z,pscale\n7,1,2,3,0.5\n").unwrap();
+        assert_eq!((ids.ids, ids.radii), (Some(vec![7]), Some(vec![0.5])));
+        assert_eq!(ids.positions, vec![Vec3::new(1.0, 2.0, 3.0)]);
+        // ParaView's Save Data CSV.
+        let paraview = p("\"velocity:0\",\"velocity:1\",\"velocity:2\",\"id\",\"Points:0\",\"Points:1\",\"Points:2\"\n0,-0.45,0,12,0.04,0.05,0.06\n").unwrap();
+        assert_eq!(paraview.positions, vec![Vec3::new(0.04, 0.05, 0.06)]);
+        assert_eq!(paraview.velocities, Some(vec![Vec3::new(0.0, -0.45, 0.0)]));
+        assert_eq!(paraview.ids, Some(vec![12]));
+        // DualSPHysics' PartVTK -SaveCsv: semicolons, units.
+        let dual = p("Pos.x [m];Pos.y [m];Pos.z [m];Idp;Vel.x [m/s];Vel.y [m/s];Vel.z [m/s];Rhop [kg/m^3]\n1;2;3;4;0.1;0.2;0.3;1000\n").unwrap();
+        assert_eq!(dual.positions, vec![Vec3::new(1.0, 2.0, 3.0)]);
+        assert_eq!(dual.velocities, Some(vec![Vec3::new(0.1, 0.2, 0.3)]));
+        assert_eq!(dual.ids, Some(vec![4]));
+        // Short names and bracketed indices.
+        let short = p("px py pz vx vy vz\n1 2 3 4 5 6\n").unwrap();
+        assert_eq!(short.velocities, Some(vec![Vec3::new(4.0, 5.0, 6.0)]));
+        let indexed = p("p[0],p[1],p[2]\n1,2,3\n").unwrap();
+        assert_eq!(indexed.positions, vec![Vec3::new(1.0, 2.0, 3.0)]);
+        // No header: x y z [radius] as before.
+        let plain = p("1 2 3 0.5\n4 5 6 0.5\n").unwrap();
+        assert_eq!(plain.radii, Some(vec![0.5, 0.5]));
+        // A header naming no position, a row short of the header: one line each.
+        let e = p("a,b,c\n1,2,3\n").unwrap_err();
+        assert!(e.contains("no x, y and z") && e.contains("a,b,c"), "{e}");
+        let e = p("x,y,z,id\n1,2,3\n").unwrap_err();
+        assert!(e.contains("line 2") && e.contains("4 columns"), "{e}");
+    }
+
+    #[test]
     fn ply_velocities_are_read_by_either_name_and_must_be_finite() {
         for names in [
             ["vx", "vy", "vz"],
@@ -576,6 +858,9 @@ mod tests {
         assert!(read_ply(bad_type.as_bytes())
             .unwrap_err()
             .contains("unknown type"));
+        let twice = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty float x\nend_header\n1 2 3 4\n";
+        let e = read_ply(twice.as_bytes()).unwrap_err();
+        assert!(e.contains("property x appears twice"), "{e}");
         let few = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n";
         assert!(read_ply(few.as_bytes())
             .unwrap_err()

@@ -9,7 +9,8 @@ mod vdb;
 use glam::Vec3;
 
 pub use particles::{
-    fluid_iso, iso_for_radius, kernel, rest_density, Density, DensityGrid, DEFAULT_SMOOTHING_LENGTH,
+    fluid_iso, iso_for_radius, kernel, rest_density, Density, DensityGrid,
+    DEFAULT_SMOOTHING_LENGTH, MAX_SMOOTHING_LENGTH,
 };
 pub use shapes::{Blobs, BoxShape, Skeleton, Sphere, Torus, Union};
 pub use vdb::{FogTarget, LevelSetTarget};
@@ -49,6 +50,13 @@ pub trait Target: Sync {
     fn may_be_inside(&self, _region: Aabb) -> bool {
         true
     }
+    /// Boxes that together hold the target's whole inside and surface: by default its
+    /// bounds. Sparse targets (particles, level sets of separate parts) list their own
+    /// pieces, so that a start or a seed costs what the target holds, not its bounding box
+    /// (two drops 20 m apart are two drops, not 8 000 m³).
+    fn parts(&self) -> Vec<Aabb> {
+        vec![self.bounds()]
+    }
 }
 
 impl<T: Target + ?Sized> Target for &T {
@@ -60,6 +68,9 @@ impl<T: Target + ?Sized> Target for &T {
     }
     fn may_be_inside(&self, region: Aabb) -> bool {
         (**self).may_be_inside(region)
+    }
+    fn parts(&self) -> Vec<Aabb> {
+        (**self).parts()
     }
 }
 
@@ -73,6 +84,9 @@ impl<T: Target + ?Sized + Send> Target for std::sync::Arc<T> {
     fn may_be_inside(&self, region: Aabb) -> bool {
         (**self).may_be_inside(region)
     }
+    fn parts(&self) -> Vec<Aabb> {
+        (**self).parts()
+    }
 }
 
 impl<T: Target + ?Sized> Target for Box<T> {
@@ -84,6 +98,9 @@ impl<T: Target + ?Sized> Target for Box<T> {
     }
     fn may_be_inside(&self, region: Aabb) -> bool {
         (**self).may_be_inside(region)
+    }
+    fn parts(&self) -> Vec<Aabb> {
+        (**self).parts()
     }
 }
 

@@ -139,7 +139,7 @@ fn bad_usage_exits_2() {
     let out = dir.path().join("o.####.vdb");
     let out = out.to_str().unwrap();
     let nothing = dir.path().join("none.####.vdb");
-    let cases: [(&str, Vec<&str>, &str); 10] = [
+    let cases: [(&str, Vec<&str>, &str); 11] = [
         (
             "a warm-up that is not a number",
             vec!["skin", "--target", target, "--warmup", "soon", "--out", out],
@@ -205,9 +205,22 @@ fn bad_usage_exits_2() {
             "--radius",
         ),
         (
+            "voxels coarser than the particles' kernel",
+            vec![
+                "particles",
+                "--particles",
+                target,
+                "--radius=0.02",
+                "--voxel-size=1e4",
+                "--out",
+                out,
+            ],
+            "coarser than the particles' kernel",
+        ),
+        (
             "clap: unknown option",
             vec!["skin", "--targte", target],
-            "--targte",
+            "unexpected argument '--targte' found (a similar argument exists: '--target'); see --help",
         ),
     ];
     for (what, args, names) in cases {
@@ -216,6 +229,8 @@ fn bad_usage_exits_2() {
         assert_eq!(result.status.code(), Some(2), "{what}: {err}");
         assert!(err.contains(names), "{what}: {err}");
         assert!(!err.contains("panicked"), "{what}: {err}");
+        // clap's mistakes too: one line, with its tip (were 4-5 lines with a usage block).
+        assert_eq!(err.lines().count(), 1, "{what}: {err}");
     }
 }
 

@@ -80,6 +80,27 @@ fn bad_morph_arguments_are_one_line_errors() {
             "not a number",
             2,
         ),
+        // Typos and impossible sizes, where the default sphere or nothing was drawn.
+        (
+            vec!["--from", "sphere:radius=0.2", "--to", "sphere"],
+            "sphere takes r, not 'radius'",
+            2,
+        ),
+        (
+            vec!["--from", "sphere:r=nan", "--to", "sphere"],
+            "r must be a positive number",
+            2,
+        ),
+        (
+            vec!["--from", "sphere", "--to", "sphere:r=-1"],
+            "r must be a positive number",
+            2,
+        ),
+        (
+            vec!["--from", "torus:R=0.2,r=0.3", "--to", "sphere"],
+            "r < R",
+            2,
+        ),
         (
             vec!["--from", "sphere", "--to", "missing.vdb"],
             "no such file",

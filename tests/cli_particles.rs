@@ -8,9 +8,7 @@ mod common;
 use std::path::Path;
 use std::process::Command;
 
-use activeskin::target::{
-    fluid_iso, rest_density, Density, DensityGrid, Target, DEFAULT_SMOOTHING_LENGTH,
-};
+use activeskin::target::{fluid_iso, Density, DensityGrid, Target, DEFAULT_SMOOTHING_LENGTH};
 use glam::Vec3;
 
 const RADIUS: f32 = 0.02;
@@ -125,7 +123,7 @@ fn a_fluid_at_rest_keeps_its_volume_on_the_iso_density_surface() {
         .unwrap()
         .positions;
     assert!(!vertices.is_empty());
-    let density = Density::new(points, h, iso).normalized(rest_density(DEFAULT_SMOOTHING_LENGTH));
+    let density = Density::new(points, h, iso).normalized(DEFAULT_SMOOTHING_LENGTH);
     let dx = 0.5 * RADIUS;
     let distances: Vec<f32> = vertices
         .iter()
@@ -148,8 +146,7 @@ fn the_first_frame_starts_as_one_solid() {
     let dir = common::scratch();
     let points = cloud();
     let (smoothing, iso) = (1.0f32, 0.33f32);
-    let density = Density::new(points.clone(), 2.0 * smoothing * RADIUS, iso)
-        .normalized(rest_density(smoothing));
+    let density = Density::new(points.clone(), 2.0 * smoothing * RADIUS, iso).normalized(smoothing);
     let mut grid = DensityGrid::rasterize(&density, 0.5 * RADIUS);
     let voids = grid.fill_voids(1.0);
     assert!(

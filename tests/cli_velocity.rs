@@ -202,6 +202,26 @@ fn velocity_named_or_in_files_of_its_own() {
     );
     assert!((from_files - found).abs() < 1e-9, "{from_files} vs {found}");
 
+    // Velocity files holding no velocity are not silently unused: one line listing
+    // their grids (here the surfaces themselves).
+    let none = common::scratch();
+    let mesh = none.path().join("m.####.obj");
+    let result = activeskin(&[
+        "skin",
+        "--target",
+        &surfaces,
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "--velocity-file",
+        &surfaces,
+    ]);
+    assert_fails(
+        &result,
+        1,
+        "no velocity grid named vel, v, velocity (grids: 'surface'",
+        "velocity files without a velocity",
+    );
+
     // A name that is not there is a one-line error naming it.
     let missing = common::scratch();
     let mesh = missing

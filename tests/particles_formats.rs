@@ -2,8 +2,10 @@
 //! (`data/sph/`): legacy VTK (`enableVTKExport`: binary big-endian, `id` as SCALARS,
 //! `velocity` in a FIELD) and partio BGEO (`enablePartioExport`: gzipped classic BGEO,
 //! whose x holds the id's bits — refused with one line saying so), unpadded frame
-//! numbers; and the VTK frame rewritten by meshio (VTK 5.1, ASCII and binary). Read
-//! alike, skinned end to end, broken files one line.
+//! numbers; the VTK frame rewritten by meshio (VTK 5.1, ASCII and binary) and as VTK XML
+//! by VTK 9.7's own writers (ParaView's) in every data mode and compressor, and by meshio
+//! (`data/sph/vtu/make_fixtures.py`). Read alike, skinned end to end, broken files one
+//! line.
 
 mod common;
 
@@ -53,6 +55,122 @@ fn splishsplash_and_meshio_files_read_alike() {
         .unwrap()
         .values;
     assert_eq!(v[1] as f32, ours.velocities.as_ref().unwrap()[0].y);
+}
+
+/// VTK XML as ParaView's writers save it — ASCII, inline base64, appended raw or base64;
+/// no compression, zlib in 1 KiB blocks, LZ4, LZMA; 32- and 64-bit headers; both byte
+/// orders — a PolyData, meshio's writer, and a parallel file of two pieces: the same
+/// particles, velocities and ids as the legacy file they were made from.
+#[test]
+fn vtk_xml_files_read_as_the_legacy_file() {
+    let legacy = frame("ParticleData_Fluid_2.vtk");
+    for name in [
+        "ascii.vtu",
+        "binary.vtu",
+        "binary_zlib.vtu",
+        "appended_raw.vtu",
+        "appended_raw_zlib.vtu",
+        "appended_base64_lz4.vtu",
+        "appended_lzma.vtu",
+        "polydata.vtp",
+        "meshio.vtu",
+        "pieces.pvtu",
+    ] {
+        let xml = read(Path::new(&data(&format!("sph/vtu/{name}"))))
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        // ASCII holds the floats as printed: within their last digit.
+        if name == "ascii.vtu" {
+            let close = |a: f32, b: f32| (a - b).abs() <= 1e-6 * b.abs().max(1.0);
+            assert_eq!(xml.positions.len(), legacy.positions.len());
+            for (p, q) in xml.positions.iter().zip(&legacy.positions) {
+                assert!((0..3).all(|k| close(p[k], q[k])), "{name}: {p} {q}");
+            }
+        } else {
+            assert_eq!(xml.positions, legacy.positions, "{name}");
+        }
+        assert_eq!(xml.ids, legacy.ids, "{name}");
+        let (a, b) = (xml.velocities.unwrap(), legacy.velocities.clone().unwrap());
+        assert_eq!(a.len(), b.len(), "{name}");
+        for (u, v) in a.iter().zip(&b) {
+            assert!((*u - *v).abs().max_element() <= 1e-6, "{name}: {u} {v}");
+        }
+    }
+}
+
+/// VTK XML files cut, or naming what they do not hold: one line, naming the file and
+/// what is wrong.
+#[test]
+fn broken_vtk_xml_files_are_one_line() {
+    let dir = common::scratch();
+    let cases: Vec<(&str, Vec<u8>, &str)> = {
+        let zlib = std::fs::read(data("sph/vtu/appended_raw_zlib.vtu")).unwrap();
+        let inline = std::fs::read(data("sph/vtu/binary.vtu")).unwrap();
+        let text = String::from_utf8(inline.clone()).unwrap();
+        vec![
+            // Cut 100 bytes into its appended data: inside its first array.
+            (
+                "cut.vtu",
+                {
+                    let tag = zlib
+                        .windows(13)
+                        .position(|w| w == b"<AppendedData")
+                        .unwrap();
+                    let data = tag + zlib[tag..].iter().position(|&b| b == b'_').unwrap();
+                    zlib[..data + 100].to_vec()
+                },
+                "ends",
+            ),
+            (
+                "cut_inline.vtu",
+                inline[..inline.len() / 2].to_vec(),
+                "ends inside <DataArray>",
+            ),
+            (
+                "image.vti",
+                text.replace("UnstructuredGrid", "ImageData").into_bytes(),
+                "",
+            ),
+            (
+                "image.vtu",
+                text.replace("\"UnstructuredGrid\"", "\"ImageData\"")
+                    .into_bytes(),
+                "ImageData",
+            ),
+            (
+                "lzo.vtu",
+                text.replace(
+                    "header_type",
+                    "compressor=\"vtkLZODataCompressor\" header_type",
+                )
+                .into_bytes(),
+                "vtkLZODataCompressor",
+            ),
+            (
+                "none.pvtu",
+                b"<VTKFile type=\"PUnstructuredGrid\"></VTKFile>".to_vec(),
+                "Piece",
+            ),
+            (
+                "missing.pvtu",
+                b"<VTKFile type=\"PUnstructuredGrid\"><Piece Source=\"gone.vtu\"/></VTKFile>"
+                    .to_vec(),
+                "gone.vtu",
+            ),
+        ]
+    };
+    for (name, bytes, says) in cases {
+        let path = dir.path().join(name);
+        std::fs::write(&path, bytes).unwrap();
+        let e = match read(&path) {
+            Ok(p) => panic!("{name}: read {} particles", p.positions.len()),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            e.starts_with(path.to_str().unwrap()) && !e.contains('\n'),
+            "{name}: {e}"
+        );
+        assert!(e.contains(says), "{name}: {e}");
+    }
 }
 
 #[cfg(feature = "vdb")]
@@ -165,6 +283,23 @@ fn damaged_files_never_panic() {
         (raw, Format::Bgeo),
         (b"[[0, 1, 2], [3.5, 4, 5e-3]]".to_vec(), Format::Json),
     ];
+    let seeds: Vec<(Vec<u8>, Format)> = seeds
+        .into_iter()
+        .chain(
+            [
+                "ascii.vtu",
+                "binary_zlib.vtu",
+                "appended_raw.vtu",
+                "appended_base64_lz4.vtu",
+                "appended_lzma.vtu",
+            ]
+            .iter()
+            .map(|name| {
+                let bytes = std::fs::read(data(&format!("sph/vtu/{name}"))).unwrap();
+                (bytes, Format::Vtu)
+            }),
+        )
+        .collect();
     let mut rng = common::Lcg(2026);
     for (seed, format) in &seeds {
         for _ in 0..300 {

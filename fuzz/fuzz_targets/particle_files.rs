@@ -1,4 +1,4 @@
-//! PLY, VTK, BGEO, JSON and XYZ/CSV particle files from arbitrary bytes: errors, never panics, and what
+//! PLY, VTK, VTK XML, BGEO, JSON and XYZ/CSV particle files from arbitrary bytes: errors, never panics, and what
 //! is accepted is finite.
 #![no_main]
 
@@ -6,7 +6,14 @@ use activeskin::particles::{parse, Format};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    for format in [Format::Ply, Format::Text, Format::Vtk, Format::Bgeo, Format::Json] {
+    for format in [
+        Format::Ply,
+        Format::Text,
+        Format::Vtk,
+        Format::Vtu,
+        Format::Bgeo,
+        Format::Json,
+    ] {
         if let Ok(particles) = parse(data, format) {
             assert!(particles.positions.iter().all(|p| p.is_finite()));
             if let Some(radii) = &particles.radii {

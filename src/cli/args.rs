@@ -29,7 +29,7 @@ pub struct PhysicsArgs {
     /// Area preservation gain γ_A (world units/s).
     #[arg(long, default_value_t = 0.0)]
     pub area_gain: f32,
-    /// Voxel size of the skin (default: the target's).
+    /// Voxel size of the skin (default: the target's for skin, radius/2 for particles).
     #[arg(long)]
     pub voxel_size: Option<f32>,
     /// Storage of the potential: f32, or fixed16 (half the memory).
@@ -38,7 +38,7 @@ pub struct PhysicsArgs {
     /// Start this many frames before --frames (not before the sequence's first frame),
     /// advancing without writing: a farm chunk then meets the sequential run at its first
     /// frame. A number, or `auto`: enough frames for the start to fade under 0.05 voxel
-    /// (ln(40)·fps/α, 22 frames at α 4 and 24 fps).
+    /// (ln(40)·fps/α rounded up, 23 frames at α 4 and 24 fps).
     #[arg(long)]
     pub warmup: Option<String>,
 }

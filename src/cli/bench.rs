@@ -36,6 +36,13 @@ pub struct BenchArgs {
     /// Only the particle races (with --particles).
     #[arg(long, requires = "particles")]
     particles_only: bool,
+    /// Only the dam break (with --particles-only): for trying settings against splashsurf.
+    #[arg(long, requires = "particles_only")]
+    sph_only: bool,
+    /// Extra options for our `particles` run on the dam break, e.g. "--alpha 16" (with
+    /// --particles): the same race and measures for other settings.
+    #[arg(long, requires = "particles", allow_hyphen_values = true)]
+    sph_args: Option<String>,
     /// The splashsurf binary to race (default: on the PATH, or in ~/.cache/activeskin).
     #[arg(long, requires = "particles")]
     splashsurf: Option<std::path::PathBuf>,
@@ -116,7 +123,15 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         solver_races(args, &mut lines, &mut report)?;
     }
     if args.particles {
-        particles::run(args.splashsurf.as_deref(), &mut lines, &mut report)?;
+        particles::run(
+            args.splashsurf.as_deref(),
+            particles::Races {
+                at_rest: !args.sph_only,
+                sph_args: args.sph_args.as_deref().unwrap_or(""),
+            },
+            &mut lines,
+            &mut report,
+        )?;
     }
     if args.json {
         println!("{}", serde_json::Value::Object(report));

@@ -20,6 +20,7 @@ pub struct DemoArgs {
     /// Folder to write into.
     #[arg(long, default_value = "out")]
     out: PathBuf,
+    /// No progress output.
     #[arg(long, short)]
     quiet: bool,
 }

@@ -25,7 +25,7 @@ pub struct MorphArgs {
     #[arg(long)]
     to: String,
     /// Inclusive frame range, e.g. 1-96.
-    #[arg(long, default_value = "1-48")]
+    #[arg(long, default_value = "1-48", allow_hyphen_values = true)]
     frames: String,
     #[command(flatten)]
     physics: PhysicsArgs,
@@ -36,29 +36,53 @@ pub struct MorphArgs {
 /// A shape from the command line and the voxel size it suggests.
 fn shape(spec: &str) -> anyhow::Result<(Box<dyn Target>, Option<f32>)> {
     let (kind, args) = spec.split_once(':').unwrap_or((spec, ""));
-    let value = |key: &str, default: f32| -> anyhow::Result<f32> {
+    // The parameters each analytic shape takes; any other is a typo, not a default.
+    let keys: &[&str] = match kind {
+        "sphere" => &["r"],
+        "torus" => &["R", "r"],
+        _ => &[],
+    };
+    let mut given: Vec<(&str, f32)> = Vec::new();
+    if !keys.is_empty() {
         for pair in args.split(',').filter(|p| !p.is_empty()) {
             let (k, v) = pair
                 .split_once('=')
                 .ok_or_else(|| bad_usage(format!("'{spec}': expected key=value, got '{pair}'")))?;
-            if k == key {
-                return v
-                    .parse()
-                    .map_err(|_| bad_usage(format!("'{spec}': '{v}' is not a number")));
+            if !keys.contains(&k) {
+                usage!("'{spec}': {kind} takes {}, not '{k}'", keys.join(", "));
             }
+            let number: f32 = v
+                .parse()
+                .map_err(|_| bad_usage(format!("'{spec}': '{v}' is not a number")))?;
+            if !(number.is_finite() && number > 0.0) {
+                usage!("'{spec}': {k} must be a positive number, got {v}");
+            }
+            given.push((k, number));
         }
-        Ok(default)
+    }
+    let value = |key: &str, default: f32| {
+        given
+            .iter()
+            .rev()
+            .find(|(k, _)| *k == key)
+            .map_or(default, |&(_, v)| v)
     };
     let target: Box<dyn Target> = match kind {
         "sphere" => Box::new(Sphere {
             center: Vec3::ZERO,
-            radius: value("r", 0.5)?,
+            radius: value("r", 0.5),
         }),
-        "torus" => Box::new(Torus {
-            center: Vec3::ZERO,
-            major: value("R", 0.6)?,
-            minor: value("r", 0.25)?,
-        }),
+        "torus" => {
+            let (major, minor) = (value("R", 0.6), value("r", 0.25));
+            if minor >= major {
+                usage!("'{spec}': a torus needs r < R (r {minor}, R {major})");
+            }
+            Box::new(Torus {
+                center: Vec3::ZERO,
+                major,
+                minor,
+            })
+        }
         "blobs" if args == "fig7" => Box::new(Blobs::fig7_points()),
         "blobs" if args == "fig6" => Box::new(Blobs::fig6_twisted_segment()),
         "spheres" if args == "fig7" => Box::new(Union::fig7_spheres()),

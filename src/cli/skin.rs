@@ -21,7 +21,7 @@ pub struct SkinArgs {
     #[arg(long)]
     target: String,
     /// Inclusive frame range, e.g. 1-96 (default: every frame the target pattern finds).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     frames: Option<String>,
     /// Keep the last target through missing frames instead of stopping.
     #[arg(long)]

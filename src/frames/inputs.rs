@@ -1,18 +1,17 @@
-//! A frame's inputs: target sequences found on disk, and VDB targets checked and read.
+//! A frame's inputs: sequences found on disk, and particle frames read and checked.
 
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
-use rayon::prelude::*;
 
 use super::FrameError;
-use crate::flow::scale::{self, ScaleFit};
-use crate::flow::{Flow, GridFlow, Mean, Timing};
+use crate::grid::REACH_VOXELS;
 use crate::particles::{self, motion::frame_velocities, Particles};
 use crate::sequence::{FramePattern, PatternError};
-use crate::target::{rest_density, Density, DensityGrid, FogTarget, LevelSetTarget, Target};
+use crate::target::{Density, DensityGrid, MAX_SMOOTHING_LENGTH};
+#[cfg(feature = "vdb")]
 use crate::vdb::{self, Grid, WriteOptions};
-use crate::volume::{units, GridClass, GridData};
 
 /// An input sequence: its pattern, the frames found on disk (sorted; none for one held
 /// file), the range to run.
@@ -85,165 +84,6 @@ impl InputFrames {
     }
 }
 
-/// What a level set target's distances are measured in (`--target-units`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum TargetUnits {
-    /// Measured from |∇φ| across the zero crossing; rescaled when not 1 per world unit.
-    #[default]
-    Auto,
-    World,
-    /// Voxels, as Mantaflow's `phi`.
-    Voxel,
-}
-
-/// A target read from a VDB file (a level set, or a fog volume at density `iso`), and its
-/// voxel size; level sets in other units rescaled to world units ([`TargetUnits::Auto`]).
-pub fn read_target(
-    path: &Path,
-    grid: Option<&str>,
-    iso: Option<f32>,
-) -> Result<(Box<dyn Target>, f32), FrameError> {
-    read_target_in(path, grid, iso, TargetUnits::Auto).map(|read| (read.target, read.dx))
-}
-
-/// A target as [`read_target_in`] reads it.
-pub struct TargetRead {
-    pub target: Box<dyn Target>,
-    /// The grid's voxel size.
-    pub dx: f32,
-    /// What was done to the level set's distances, when anything was.
-    pub note: Option<String>,
-}
-
-/// [`read_target`] with the level set's `units` given, and a line saying what was done to
-/// its distances, when anything was.
-pub fn read_target_in(
-    path: &Path,
-    grid: Option<&str>,
-    iso: Option<f32>,
-    units: TargetUnits,
-) -> Result<TargetRead, FrameError> {
-    let mut data = Grid::read(path, grid)?.to_data()?;
-    check_usable(path, &data)?;
-    // An empty grid is a frame without liquid (an emitter not started yet, a pool drained):
-    // all outside, the skin goes on toward it.
-    let dx = data.transform.voxel_size() as f32;
-    let note = match data.class {
-        GridClass::LevelSet => to_world_units(&mut data, units),
-        _ => None,
-    };
-    let target: Box<dyn Target> = match (data.class, iso) {
-        (GridClass::LevelSet, _) => Box::new(LevelSetTarget::new(&data)),
-        (_, Some(iso)) if iso.is_finite() => Box::new(FogTarget::new(&data, iso)),
-        (_, Some(iso)) => {
-            return Err(FrameError::Usage(format!(
-                "--iso must be a number, got {iso}"
-            )))
-        }
-        (_, None) => {
-            return Err(FrameError::Usage(format!(
-                "{}: grid '{}' is not a level set: give --iso, the density of its surface",
-                path.display(),
-                data.name
-            )))
-        }
-    };
-    Ok(TargetRead { target, dx, note })
-}
-
-/// Makes a level set's distances world units, and a background of 0 (a dense grid, as
-/// Mantaflow writes) outside; says what it did.
-fn to_world_units(data: &mut GridData, units: TargetUnits) -> Option<String> {
-    let dx = data.transform.voxel_size() as f32;
-    let name = data.name.clone();
-    let ratio = |k: f64| (0.7..1.43).contains(&k);
-    let (scale, mut note) = match units {
-        TargetUnits::World => (1.0, None),
-        TargetUnits::Voxel => (dx, None),
-        TargetUnits::Auto => match units::gradient_per_world_unit(data) {
-            Some(k) if ratio(k) => (1.0, None),
-            Some(k) if ratio(k * f64::from(dx)) => (
-                dx,
-                Some(format!(
-                    "grid '{name}': distances in voxels (|∇φ| {k:.1} per world unit, Δx = {dx}); rescaled to world units (--target-units world keeps them)"
-                )),
-            ),
-            Some(k) => (
-                (1.0 / k) as f32,
-                Some(format!(
-                    "grid '{name}': |∇φ| is {k:.3} per world unit, not 1; distances rescaled by {:.4} (--target-units world keeps them)",
-                    1.0 / k
-                )),
-            ),
-            None => (1.0, None),
-        },
-    };
-    if scale != 1.0 {
-        units::rescale(data, scale);
-    }
-    if let Some(line) = background_outside(data) {
-        note = Some(match note {
-            Some(n) => format!("{n}; {line}"),
-            None => line,
-        });
-    }
-    note
-}
-
-/// A level set whose background is not outside (0, as Mantaflow's dense `phi`): beyond its
-/// voxels is taken as outside, as far as its farthest stored distance, so that liquid
-/// touching the domain's walls is closed there; says so.
-pub fn background_outside(data: &mut GridData) -> Option<String> {
-    if data.background > 0.0 {
-        return None;
-    }
-    let dx = data.transform.voxel_size() as f32;
-    let outside = data
-        .leaf_values
-        .iter()
-        .chain(data.tiles.iter().map(|t| &t.value))
-        .fold(3.0 * dx, |m, &v| m.max(v));
-    let line = format!(
-        "grid '{}': background {} taken as {outside} (outside) beyond its voxels",
-        data.name, data.background
-    );
-    data.background = outside;
-    Some(line)
-}
-
-/// What any grid we sample or mesh must be: uniform voxels and finite values.
-pub fn check_usable(path: &Path, data: &GridData) -> Result<(), FrameError> {
-    check_transform(path, data)?;
-    let finite = data.background.is_finite()
-        && data.leaf_values.par_iter().all(|v| v.is_finite())
-        && data.tiles.iter().all(|t| t.value.is_finite());
-    if !finite {
-        return Err(not_finite(path, data));
-    }
-    Ok(())
-}
-
-/// The transform half of [`check_usable`], for a caller that reads every value anyway.
-pub fn check_transform(path: &Path, data: &GridData) -> Result<(), FrameError> {
-    if !data.uniform_linear {
-        return Err(FrameError::Data(format!(
-            "{}: grid '{}' has a non-uniform or non-linear transform; resample it to cubic voxels",
-            path.display(),
-            data.name
-        )));
-    }
-    Ok(())
-}
-
-/// The error of a grid holding a value that is not a finite number.
-pub fn not_finite(path: &Path, data: &GridData) -> FrameError {
-    FrameError::Data(format!(
-        "{}: grid '{}' holds NaN or infinite values",
-        path.display(),
-        data.name
-    ))
-}
-
 /// How particle frames become targets (§6.1): the density of particles of `radius` (or
 /// their own radii) with supports of 2·`smoothing_length` radii, its surface at `iso`,
 /// rasterized on the skin's voxels; written as a fog volume when `density_out`.
@@ -270,9 +110,49 @@ pub struct ParticleFrame {
     /// The density's velocities are each particle's motion since `before`, so the
     /// density is the frame's flow map ([`crate::flow::FlowMap`]).
     pub carried: bool,
+    /// What the user should know about the frame: particles left out.
+    pub note: Option<String>,
 }
 
 impl ParticleInput {
+    /// Why these parameters cannot make a skin, if they cannot: the radius, smoothing
+    /// length, iso and voxel size must be finite and positive, the velocity scale finite,
+    /// and the voxel no coarser than the kernel's support (2 × smoothing length ×
+    /// radius) — coarser, the density is sampled by less than a node per particle and
+    /// the skin takes the shape of the voxels (a ball of radius 0.1 at `--voxel-size
+    /// 1e4` became a blob of 6·10¹⁰ m³).
+    pub fn check(&self) -> Result<(), String> {
+        let positive = |name: &str, v: f32| match v.is_finite() && v > 0.0 {
+            true => Ok(()),
+            false => Err(format!("{name} must be a positive number, got {v}")),
+        };
+        positive("--radius", self.radius)?;
+        positive("--smoothing-length", self.smoothing_length)?;
+        // Before the iso, which is NaN past it.
+        if self.smoothing_length > MAX_SMOOTHING_LENGTH {
+            return Err(format!(
+                "--smoothing-length {} is beyond {MAX_SMOOTHING_LENGTH} radii (some 17 000 neighbours a particle)",
+                self.smoothing_length
+            ));
+        }
+        positive("--iso", self.iso)?;
+        positive("--voxel-size", self.dx)?;
+        if let Some(k) = self.velocity_scale.filter(|k| !k.is_finite()) {
+            return Err(format!("--velocity-scale must be a number, got {k}"));
+        }
+        if cfg!(not(feature = "vdb")) && self.density_out.is_some() {
+            return Err("--density-out writes VDB fog volumes: this activeskin was built without OpenVDB (the `vdb` feature)".into());
+        }
+        let support = 2.0 * self.smoothing_length * self.radius;
+        if self.dx > support {
+            return Err(format!(
+                "--voxel-size {} is coarser than the particles' kernel (support {support}): at most that; the default, radius/2, resolves them",
+                self.dx
+            ));
+        }
+        Ok(())
+    }
+
     /// Reads the particles of `frame` from `path` (once) and builds their density, with
     /// their velocities when the file has them and they are not ignored.
     pub fn target(&self, path: &Path, frame: i64) -> Result<DensityGrid, FrameError> {
@@ -291,7 +171,28 @@ impl ParticleInput {
         duration: f32,
     ) -> Result<ParticleFrame, FrameError> {
         // No particles is a frame without liquid, as an empty grid is.
-        let cloud = particles::read(path)?;
+        let mut cloud = particles::read(path)?;
+        // Stray particles beyond the grid's reach would snap to a lattice coarser than
+        // its voxels: left out, and said (as are those of the frame they are matched to).
+        let reach = REACH_VOXELS * self.dx;
+        let far = cloud.keep_within(reach);
+        // Copied only when it has some to leave out.
+        let before: Option<Cow<Particles>> = before.map(|b| match b.within(reach) {
+            true => Cow::Borrowed(b),
+            false => {
+                let mut b = b.clone();
+                b.keep_within(reach);
+                Cow::Owned(b)
+            }
+        });
+        let before = before.as_deref();
+        let note = (far > 0).then(|| {
+            format!(
+                "{}: {far} particle(s) more than {reach} from the origin left out (2^20 voxels of {}: farther, 32-bit coordinates do not resolve the voxels)",
+                path.display(),
+                self.dx
+            )
+        });
         let support = 2.0 * self.smoothing_length;
         let density = match &cloud.radii {
             Some(radii) if !self.ignore_radii => {
@@ -306,16 +207,20 @@ impl ParticleInput {
             _ => None,
         };
         let carried = motion.is_some();
-        let rest = rest_density(self.smoothing_length);
+        let l = self.smoothing_length;
         let density = match (motion, &cloud.velocities, self.velocity_scale) {
-            (Some(u), ..) => density.with_velocities(&u).normalized_with_gradients(rest),
+            (Some(u), ..) => density.with_velocities(&u).normalized_with_gradients(l),
             (None, Some(v), Some(k)) => {
                 let scaled: Vec<Vec3> = v.iter().map(|&u| u * k).collect();
-                density.normalized(rest).with_velocities(&scaled)
+                density.normalized(l).with_velocities(&scaled)
             }
-            _ => density.normalized(rest),
+            _ => density.normalized(l),
         };
         let grid = DensityGrid::rasterize(&density, self.dx);
+        // The fog volume (OpenVDB only: check() refuses --density-out without it).
+        #[cfg(not(feature = "vdb"))]
+        let _ = frame;
+        #[cfg(feature = "vdb")]
         if let Some(out) = &self.density_out {
             let fog = Grid::from_data(&grid.to_fog_volume())?;
             let meta = vdb::frame_metadata(frame);
@@ -325,6 +230,7 @@ impl ParticleInput {
             density: grid,
             particles: cloud,
             carried,
+            note,
         })
     }
 
@@ -334,235 +240,4 @@ impl ParticleInput {
         let h = 2.0 * self.smoothing_length * self.radius;
         4.0 / 3.0 * std::f32::consts::PI * h.powi(3)
     }
-}
-
-/// Where a frame's velocity comes from.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum VelocitySource {
-    /// No velocity: the skin follows by attraction alone.
-    Off,
-    /// A vector grid named `vel`, `v` or `velocity` when the file holds one.
-    Auto,
-    /// This grid, which must be there.
-    Named(String),
-}
-
-/// The velocity of each frame (paper §7): a vector grid in the target's file or in files
-/// of its own, in world units per second after `scale`.
-#[derive(Debug, Clone)]
-pub struct VelocityInput {
-    pub source: VelocitySource,
-    /// Velocity files, when not in the target's.
-    pub files: Option<FramePattern>,
-    pub scale: f32,
-}
-
-/// The names a simulation's velocity goes by: Houdini `vel` (and `v` for points),
-/// Mantaflow `velocity`.
-pub const VELOCITY_NAMES: [&str; 3] = ["vel", "v", "velocity"];
-
-impl VelocityInput {
-    /// The flow of `frame`, whose target is `target_file`; `None` when off, or when
-    /// automatic and the file holds no velocity grid. `note` hears which grid was chosen.
-    pub fn flow(
-        &self,
-        target_file: &Path,
-        frame: i64,
-        note: &mut dyn FnMut(String),
-    ) -> Result<Option<GridFlow>, FrameError> {
-        let path = match &self.files {
-            Some(pattern) => pattern.path(frame),
-            None => target_file.to_path_buf(),
-        };
-        let name = match &self.source {
-            VelocitySource::Off => return Ok(None),
-            VelocitySource::Named(name) => name.clone(),
-            VelocitySource::Auto => {
-                let grids = vdb::grid_types(&path)?;
-                let vector = |n: &str| grids.iter().any(|(g, t)| g == n && t.contains("vec3"));
-                match VELOCITY_NAMES.into_iter().find(|n| vector(n)) {
-                    Some(n) => {
-                        note(format!(
-                            "velocity: grid '{n}' of {} (--no-velocity to ignore it)",
-                            path.display()
-                        ));
-                        n.to_string()
-                    }
-                    None => return Ok(None),
-                }
-            }
-        };
-        let grid = vdb::read_vector_grid(&path, Some(&name))?;
-        if !grid.uniform_linear {
-            return Err(FrameError::Data(format!(
-                "{}: velocity grid '{name}' has a non-uniform or non-linear transform",
-                path.display()
-            )));
-        }
-        GridFlow::new(&grid, self.scale)
-            .map(Some)
-            .map_err(|m| FrameError::Data(format!("{}: {m}", path.display())))
-    }
-}
-
-/// The velocity's scale as measured by [`VelocityInput::measure_scale`].
-#[derive(Debug, Clone)]
-pub struct ScaleEstimate {
-    /// The median of the good fits under `timing`; `None` when no pair fits well.
-    pub scale: Option<f64>,
-    /// The timing chosen ([`scale::choose_timing`]), or given.
-    pub timing: Timing,
-    /// Each frame pair tried, with its fit under `timing`.
-    pub fits: Vec<((i64, i64), ScaleFit)>,
-    /// The same pairs' fits under the other timing, when it was tried.
-    pub other: Vec<ScaleFit>,
-}
-
-impl ScaleEstimate {
-    /// The estimate as a stats field.
-    pub fn to_json(&self) -> serde_json::Value {
-        serde_json::json!({
-            "scale": self.scale,
-            "timing": self.timing.name(),
-            "pairs": self.fits.iter().map(|((a, b), f)| serde_json::json!({
-                "frames": [a, b], "scale": f.scale, "r2": f.r2, "samples": f.samples,
-            })).collect::<Vec<_>>(),
-            "other_timing_scales": self.other.iter().map(|f| f.scale).collect::<Vec<_>>(),
-        })
-    }
-}
-
-/// Frame pairs the scale is measured on, at most.
-const SCALE_PAIRS: usize = 3;
-/// Points per pair, at most (every k-th band voxel).
-const SCALE_POINTS: usize = 20_000;
-
-impl VelocityInput {
-    /// Measures the factor that turns the velocity into world units per second from the
-    /// first frame pairs of `frames` whose level sets (grid `grid`, distances in `units`)
-    /// and velocities exist:
-    /// the surface's own motion between them against the velocity's prediction
-    /// ([`scale::fit`]), over the voxels within 1.5 voxels of the earlier surface. Under
-    /// `timing`, or under each timing when `None`, keeping the one that fits
-    /// ([`scale::choose_timing`]).
-    pub fn measure_scale(
-        &self,
-        input: &InputFrames,
-        (grid, units): (Option<&str>, TargetUnits),
-        fps: f64,
-        timing: Option<Timing>,
-    ) -> Result<ScaleEstimate, FrameError> {
-        let timings = match timing {
-            Some(t) => vec![t],
-            None => vec![Timing::Start, Timing::Mid],
-        };
-        let mut fits: Vec<((i64, i64), Vec<ScaleFit>)> = Vec::new();
-        let unscaled = VelocityInput {
-            scale: 1.0,
-            ..self.clone()
-        };
-        let (first, last) = input.range;
-        let frames: Vec<i64> = input
-            .existing
-            .iter()
-            .copied()
-            .filter(|f| (first..=last).contains(f))
-            .collect();
-        for pair in frames.windows(2).filter(|w| w[1] == w[0] + 1) {
-            if fits.len() == SCALE_PAIRS {
-                break;
-            }
-            let (a, b) = (pair[0], pair[1]);
-            // A pair without velocity or level sets, or a frame that cannot be read, ends
-            // the measurement (the run reports a bad frame when it gets there, after writing
-            // the frames before).
-            match fit_pair(&unscaled, input, (grid, units), (a, b), fps, &timings) {
-                Ok(Some(fit)) => fits.push(((a, b), fit)),
-                Ok(None) | Err(_) => break,
-            }
-        }
-        let under = |i: usize| fits.iter().map(|(_, f)| f[i]).collect::<Vec<ScaleFit>>();
-        let candidates: Vec<(Timing, Vec<ScaleFit>)> = timings
-            .iter()
-            .enumerate()
-            .map(|(i, &t)| (t, under(i)))
-            .collect();
-        let (chosen, scale) = scale::choose_timing(&candidates);
-        let index = timings.iter().position(|&t| t == chosen).unwrap_or(0);
-        Ok(ScaleEstimate {
-            scale,
-            timing: chosen,
-            fits: fits.iter().map(|(pair, f)| (*pair, f[index])).collect(),
-            other: fits
-                .iter()
-                .flat_map(|(_, f)| f.iter().enumerate().filter(|&(i, _)| i != index))
-                .map(|(_, f)| *f)
-                .collect(),
-        })
-    }
-}
-
-/// The fits of one frame pair under each of `timings`; `None` when a frame lacks a
-/// velocity or is not a level set.
-fn fit_pair(
-    unscaled: &VelocityInput,
-    input: &InputFrames,
-    (grid, units): (Option<&str>, TargetUnits),
-    (a, b): (i64, i64),
-    fps: f64,
-    timings: &[Timing],
-) -> Result<Option<Vec<ScaleFit>>, FrameError> {
-    let (path_a, path_b) = (input.pattern.path(a), input.pattern.path(b));
-    let mut quiet = |_: String| {};
-    let (Some(flow_a), Some(flow_b)) = (
-        unscaled.flow(&path_a, a, &mut quiet)?,
-        unscaled.flow(&path_b, b, &mut quiet)?,
-    ) else {
-        return Ok(None);
-    };
-    let (mut data_a, mut data_b) = (
-        Grid::read(&path_a, grid)?.to_data()?,
-        Grid::read(&path_b, grid)?.to_data()?,
-    );
-    if data_a.class != GridClass::LevelSet || data_b.class != GridClass::LevelSet {
-        return Ok(None); // a fog volume's density is not a distance
-    }
-    // The distances the skin will see.
-    to_world_units(&mut data_a, units);
-    to_world_units(&mut data_b, units);
-    let dx = data_a.transform.voxel_size() as f32;
-    let points = band_points(&data_a, 1.5 * dx);
-    let step = points.len().div_ceil(SCALE_POINTS).max(1);
-    let points: Vec<Vec3> = points.into_iter().step_by(step).collect();
-    let (before, after) = (LevelSetTarget::new(&data_a), LevelSetTarget::new(&data_b));
-    let fits = timings
-        .iter()
-        .map(|timing| {
-            let mean = Mean(&flow_a, &flow_b);
-            let flow: &dyn Flow = match timing {
-                Timing::Start => &flow_a,
-                Timing::Mid => &mean,
-            };
-            scale::fit(&before, &after, flow, &points, (1.0 / fps) as f32, 0.5 * dx)
-        })
-        .collect();
-    Ok(Some(fits))
-}
-
-/// World positions of a level set's active voxels with |φ| < `within`.
-fn band_points(data: &GridData, within: f32) -> Vec<Vec3> {
-    let mut points = Vec::new();
-    for (leaf, origin) in data.leaf_origins.iter().enumerate() {
-        let mask = &data.leaf_masks[leaf];
-        for (offset, &phi) in data.leaf_values(leaf).iter().enumerate() {
-            if mask[offset >> 6] >> (offset & 63) & 1 == 1 && phi.abs() < within {
-                let l = crate::grid::offset_coords(offset);
-                let ijk = [origin[0] + l.x, origin[1] + l.y, origin[2] + l.z].map(f64::from);
-                points.push(Vec3::from(
-                    data.transform.index_to_world(ijk).map(|c| c as f32),
-                ));
-            }
-        }
-    }
-    points
 }

@@ -13,6 +13,7 @@ use crate::render::{self, Up, View};
 use crate::sequence::FramePattern;
 use crate::skin::{AnySkin, StepStats};
 use crate::target::{Aabb, LevelSetTarget, Target};
+#[cfg(feature = "vdb")]
 use crate::vdb::{self, Grid, WriteOptions};
 use crate::volume::GridData;
 
@@ -77,6 +78,11 @@ impl Outputs {
         if out.is_none() && mesh.is_none() && render.is_none() && spec.stats.is_none() {
             return usage("nothing to write: give --out, --mesh, --render or --stats".into());
         }
+        if cfg!(not(feature = "vdb")) && out.is_some() {
+            return usage(
+                "--out writes VDB files: this activeskin was built without OpenVDB (the `vdb` feature); write --mesh instead".into(),
+            );
+        }
         if spec.resume && out.is_none() {
             return usage(
                 "--resume needs --out: it continues from the last skin VDB written there".into(),
@@ -92,6 +98,17 @@ impl Outputs {
                 ))
             })?;
             remove_stale_temporaries(pattern, first..=last);
+        }
+        // The stats file's folder too, as the others': made before frame 1 is written.
+        if let Some(folder) = spec.stats.as_ref().and_then(|s| s.parent()) {
+            if !folder.as_os_str().is_empty() {
+                std::fs::create_dir_all(folder).map_err(|e| {
+                    FrameError::Data(format!(
+                        "{}: cannot create the output folder: {e}",
+                        folder.display()
+                    ))
+                })?;
+            }
         }
         let terminal = std::io::stderr().is_terminal();
         let quiet = spec.progress == Progress::Quiet;
@@ -202,6 +219,7 @@ impl Outputs {
         // The skin VDB last: --resume restarts after the last one found, so every other
         // output of its frame must already be on disk (a kill between them used to leave
         // that frame without its mesh or stats line).
+        #[cfg(feature = "vdb")]
         if let Some(pattern) = &self.out {
             let grid = Grid::from_data(level_set)?;
             let meta = vdb::frame_metadata(frame);

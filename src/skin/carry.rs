@@ -147,15 +147,7 @@ impl<P: Potential> Skin<P> {
         // from: 1 stored, −1 inside tile, 0 outside. A block is a tile only when its centre
         // and, next to the old band, its eight corners all came from tiles of one side —
         // else part of it came from the band, and a tile would move the skin to its faces.
-        let bounds = map.bounds().padded((w + 2.0) * dx);
-        let side = dx * BLOCK_DIM as f32;
-        let lo = ((bounds.min - xf.origin) / side).floor().as_ivec3() - IVec3::ONE;
-        let hi = ((bounds.max - xf.origin) / side).ceil().as_ivec3() + IVec3::ONE;
-        let coords: Vec<IVec3> = (lo.x..=hi.x)
-            .flat_map(|x| {
-                (lo.y..=hi.y).flat_map(move |y| (lo.z..=hi.z).map(move |z| IVec3::new(x, y, z)))
-            })
-            .collect();
+        let coords = super::seed::blocks_around(&map.parts(), map.bounds(), xf, w);
         // Where the material at node `ijk` came from: 1 a stored block, −1 an inside
         // tile, 0 outside; and whether a stored block is next to it.
         let origin = |ijk: Vec3| -> (i8, bool) {

@@ -31,23 +31,51 @@ pub(super) fn classify_blocks(
         .collect()
 }
 
-/// The blocks of `target`'s bounds, padded by the band and one block.
+/// The blocks of `target`'s parts, padded by the band and one block.
 fn target_blocks(target: &dyn Target, xf: IndexToWorld, band_width: f32) -> Vec<IVec3> {
+    blocks_around(&target.parts(), target.bounds(), xf, band_width)
+}
+
+/// The blocks of the boxes `parts` (within `bounds`), each padded by the band and one
+/// block, once each, in coordinate order. Many parts that fill their bounds are
+/// enumerated as the bounds, at once.
+pub(super) fn blocks_around(
+    parts: &[Aabb],
+    bounds: Aabb,
+    xf: IndexToWorld,
+    band_width: f32,
+) -> Vec<IVec3> {
     let dx = xf.dx;
-    let bounds = target.bounds().padded((band_width + 2.0) * dx);
-    let lo = ((bounds.min - xf.origin) / (dx * BLOCK_DIM as f32))
-        .floor()
-        .as_ivec3()
-        - IVec3::ONE;
-    let hi = ((bounds.max - xf.origin) / (dx * BLOCK_DIM as f32))
-        .ceil()
-        .as_ivec3()
-        + IVec3::ONE;
-    (lo.x..=hi.x)
-        .flat_map(|x| {
+    let side = dx * BLOCK_DIM as f32;
+    let range = |b: Aabb| {
+        let b = b.padded((band_width + 2.0) * dx);
+        let lo = ((b.min - xf.origin) / side).floor().as_ivec3() - IVec3::ONE;
+        let hi = ((b.max - xf.origin) / side).ceil().as_ivec3() + IVec3::ONE;
+        (lo, hi)
+    };
+    // In f64: a bounding box can hold more blocks than an i64 counts.
+    let count = |(lo, hi): (IVec3, IVec3)| {
+        let n = (hi.as_dvec3() - lo.as_dvec3() + 1.0).max(glam::DVec3::ZERO);
+        n.x * n.y * n.z
+    };
+    let boxes: Vec<(IVec3, IVec3)> = parts.iter().map(|&b| range(b)).collect();
+    let whole = range(bounds);
+    let listed: f64 = boxes.iter().map(|&r| count(r)).sum();
+    let mut coords: Vec<IVec3> = if listed >= count(whole) {
+        vec![whole]
+    } else {
+        boxes
+    }
+    .into_iter()
+    .flat_map(|(lo, hi)| {
+        (lo.x..=hi.x).flat_map(move |x| {
             (lo.y..=hi.y).flat_map(move |y| (lo.z..=hi.z).map(move |z| IVec3::new(x, y, z)))
         })
-        .collect()
+    })
+    .collect();
+    coords.par_sort_unstable_by_key(|c| c.to_array());
+    coords.dedup();
+    coords
 }
 
 /// The target's distance at the centre of block `c`.

@@ -15,6 +15,8 @@ struct Sampler {
     tiles: [HashMap<IVec3, f32>; 3],
     background: f32,
     origin: Vec3,
+    /// Index → world, without the translation.
+    to_world: Mat3,
     /// World → index, without the translation: transforms rotated or translated by a
     /// DCC are sampled where they are.
     to_index: Mat3,
@@ -23,6 +25,29 @@ struct Sampler {
 }
 
 const TILE_DIMS: [i32; 3] = [8, 128, 4096];
+
+/// The world box of the index box `lo..=hi`: its eight corners transformed.
+fn world_box(origin: Vec3, to_world: Mat3, lo: IVec3, hi: IVec3) -> Aabb {
+    (0..8).fold(
+        Aabb {
+            min: Vec3::INFINITY,
+            max: Vec3::NEG_INFINITY,
+        },
+        |b, c| {
+            let pick = |bit: i32, a: i32, b: i32| if c >> bit & 1 == 1 { b } else { a };
+            let ijk = IVec3::new(
+                pick(0, lo.x, hi.x),
+                pick(1, lo.y, hi.y),
+                pick(2, lo.z, hi.z),
+            );
+            let p = origin + to_world * ijk.as_vec3();
+            Aabb {
+                min: b.min.min(p),
+                max: b.max.max(p),
+            }
+        },
+    )
+}
 
 impl Sampler {
     fn new(data: &GridData) -> Self {
@@ -62,35 +87,40 @@ impl Sampler {
             lo = IVec3::ZERO;
             hi = IVec3::ZERO;
         }
-        let corners = (0..8).map(|c| {
-            let pick = |bit: i32, a: i32, b: i32| if c >> bit & 1 == 1 { b } else { a };
-            let ijk = IVec3::new(
-                pick(0, lo.x, hi.x),
-                pick(1, lo.y, hi.y),
-                pick(2, lo.z, hi.z),
-            );
-            origin + to_world * ijk.as_vec3()
-        });
-        let bounds = corners.fold(
-            Aabb {
-                min: Vec3::INFINITY,
-                max: Vec3::NEG_INFINITY,
-            },
-            |b, p| Aabb {
-                min: b.min.min(p),
-                max: b.max.max(p),
-            },
-        );
+        let bounds = world_box(origin, to_world, lo, hi);
         Sampler {
             leaves,
             values: data.leaf_values.clone(),
             tiles,
             background: data.background,
             origin,
+            to_world,
             to_index: to_world.inverse(),
             dx,
             bounds,
         }
+    }
+
+    /// Boxes holding every stored leaf and every tile for which `keep(value)`, each up to
+    /// the next voxels (sampled between them).
+    fn parts(&self, keep: impl Fn(f32) -> bool) -> Vec<Aabb> {
+        let leaves = self
+            .leaves
+            .keys()
+            .map(|&o| world_box(self.origin, self.to_world, o, o + IVec3::splat(8)));
+        let tiles = self.tiles.iter().zip(TILE_DIMS).flat_map(|(level, dim)| {
+            level
+                .iter()
+                .filter(|(_, &v)| keep(v))
+                .map(move |(&o, _)| (o, dim))
+        });
+        leaves
+            .chain(
+                tiles.map(|(o, dim)| {
+                    world_box(self.origin, self.to_world, o, o + IVec3::splat(dim))
+                }),
+            )
+            .collect()
     }
 
     fn voxel(&self, ijk: IVec3) -> f32 {
@@ -178,6 +208,10 @@ impl Target for LevelSetTarget {
     fn bounds(&self) -> Aabb {
         self.sampler.bounds
     }
+    /// The leaves and the inside tiles: outside tiles hold neither surface nor material.
+    fn parts(&self) -> Vec<Aabb> {
+        self.sampler.parts(|v| v < 0.0)
+    }
 }
 
 /// A fog volume (density, larger inside) and the iso value of its surface.
@@ -201,5 +235,9 @@ impl Target for FogTarget {
     }
     fn bounds(&self) -> Aabb {
         self.sampler.bounds
+    }
+    /// The leaves and the tiles denser than the iso.
+    fn parts(&self) -> Vec<Aabb> {
+        self.sampler.parts(|v| v > self.iso)
     }
 }

@@ -166,8 +166,17 @@ fn read_meshes(
         .collect()
 }
 
+/// Which particle races run.
+pub struct Races<'a> {
+    /// The races at rest (100 k and 1 M particles, the fluid at rest), after the dam break.
+    pub at_rest: bool,
+    /// Extra options for our run on the dam break, split at whitespace.
+    pub sph_args: &'a str,
+}
+
 pub fn run(
     given: Option<&Path>,
+    which: Races,
     lines: &mut Vec<String>,
     report: &mut serde_json::Map<String, serde_json::Value>,
 ) -> anyhow::Result<()> {
@@ -179,8 +188,11 @@ pub fn run(
         }
     };
     let root = std::env::temp_dir().join(format!("activeskin-bench-{}", std::process::id()));
-    let result = super::sph::race(&root, splashsurf.as_deref(), lines, report)
-        .and_then(|()| races(&root, splashsurf.as_deref(), lines, report));
+    let result = super::sph::race(&root, splashsurf.as_deref(), which.sph_args, lines, report)
+        .and_then(|()| match which.at_rest {
+            true => races(&root, splashsurf.as_deref(), lines, report),
+            false => Ok(()),
+        });
     // The clouds and meshes are large: never left behind.
     let _ = std::fs::remove_dir_all(&root);
     result

@@ -191,6 +191,13 @@ fn range(values: &[f64]) -> (f64, f64) {
         })
 }
 
+/// The middle value (the upper one of an even count); 0 for none.
+fn median(values: &[f64]) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    sorted.get(sorted.len() / 2).copied().unwrap_or(0.0)
+}
+
 fn mean(values: &[f64]) -> f64 {
     values.iter().sum::<f64>() / values.len().max(1) as f64
 }
@@ -198,6 +205,7 @@ fn mean(values: &[f64]) -> f64 {
 pub fn race(
     root: &Path,
     splashsurf: Option<&Path>,
+    extra: &str,
     lines: &mut Vec<String>,
     report: &mut serde_json::Map<String, serde_json::Value>,
 ) -> anyhow::Result<()> {
@@ -228,6 +236,7 @@ pub fn race(
         if stats {
             command.arg("--stats").arg(dir.join("ours.jsonl"));
         }
+        command.args(extra.split_whitespace());
         timed(&mut command)
     };
     let ours_s = ours(false)?;
@@ -309,12 +318,17 @@ pub fn race(
     let per_frame = |s: f64| s / frames as f64 * 1e3;
     let (v_lo, v_hi) = range(&ours.volume);
     lines.push(format!(
-        "particles, SPH dam break ({} particles, {frames} frames, cell = r)   ours {:.0} ms/frame, volume/N(2r)³ {v_lo:.3}–{v_hi:.3}, {:.2} % of particles > r outside, noise {:.3} voxel, flicker {:.3} voxel, {:.3} voxel from each frame's density, sub-steps {}–{}{}",
+        "particles, SPH dam break ({} particles, {frames} frames, cell = r)   ours{} {:.0} ms/frame, volume/N(2r)³ {v_lo:.3}–{v_hi:.3}, {:.2} % of particles > r outside, noise {:.3} voxel, flicker {:.3} voxel (median {:.3}), {:.3} voxel from each frame's density, sub-steps {}–{}{}",
         clouds[0].len(),
+        match extra.trim() {
+            "" => String::new(),
+            given => format!(" ({given})"),
+        },
         per_frame(ours_s),
         100.0 * range(&ours.outside).1,
         mean(&ours.noise),
         mean(&ours.flicker),
+        median(&ours.flicker),
         mean(&lag),
         substeps.iter().min().unwrap_or(&0),
         substeps.iter().max().unwrap_or(&0),
@@ -322,11 +336,12 @@ pub fn race(
             (Some(t), Some(s)) => {
                 let (lo, hi) = range(&t.volume);
                 format!(
-                    "   splashsurf {:.0} ms/frame, volume {lo:.3}–{hi:.3}, {:.2} % outside, noise {:.3}, flicker {:.3}   time ratio {:.2}, noise ratio {:.2}, flicker ratio {:.2}",
+                    "   splashsurf {:.0} ms/frame, volume {lo:.3}–{hi:.3}, {:.2} % outside, noise {:.3}, flicker {:.3} (median {:.3})   time ratio {:.2}, noise ratio {:.2}, flicker ratio {:.2}",
                     per_frame(s),
                     100.0 * range(&t.outside).1,
                     mean(&t.noise),
                     mean(&t.flicker),
+                    median(&t.flicker),
                     ours_s / s,
                     mean(&ours.noise) / mean(&t.noise),
                     mean(&ours.flicker) / mean(&t.flicker),
@@ -343,7 +358,7 @@ pub fn race(
     };
     report.insert(
         "particles_sph".into(),
-        json!({"particles": clouds[0].len(), "frames": frames, "radius": r,
+        json!({"particles": clouds[0].len(), "frames": frames, "radius": r, "ours_args": extra,
                "ours": side(&ours, ours_s), "ours_lag_voxels": lag, "ours_substeps": substeps,
                "ours_frame_ms": frame_ms,
                "splashsurf": theirs.as_ref().zip(theirs_s).map(|(t, s)| side(t, s)),
