@@ -209,7 +209,7 @@ impl ParticleInput {
         let carried = motion.is_some();
         let l = self.smoothing_length;
         let density = match (motion, &cloud.velocities, self.velocity_scale) {
-            (Some(u), ..) => density.with_velocities(&u).normalized_with_gradients(l),
+            (Some(u), ..) => density.with_velocities(&u).normalized(l),
             (None, Some(v), Some(k)) => {
                 let scaled: Vec<Vec3> = v.iter().map(|&u| u * k).collect();
                 density.normalized(l).with_velocities(&scaled)

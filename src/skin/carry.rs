@@ -234,10 +234,11 @@ impl<P: Potential> Skin<P> {
     /// Moves the whole skin along its normals by the uniform offset that gives it back
     /// `volume` (the liquid is incompressible, so a carry keeps its volume). The map is
     /// known exactly only at the particles; the skin lies about a radius beyond the outer
-    /// ones, where the motion is extrapolated: on the SPlisHSPlasH dam break that gained
-    /// 2–4 % a frame with the particles' mean motion alone (Shepard), about 1 % with
-    /// each particle's velocity gradient, 0 with this offset (0.06 voxel a frame on
-    /// average, 0.25 at most there).
+    /// ones, where the motion is extended: on the SPlisHSPlasH dam break that gained
+    /// 2–4 % a frame with the particles' mean motion over the density's support (Shepard),
+    /// 0 with this offset (0.06 voxel a frame on average, 0.25 at most there); over the
+    /// nearer particles the velocity now averages (2.5 radii), the shot's volume reached
+    /// 1.069 without the offset, 1.042 with it.
     fn keep_volume(&mut self, volume: f64) {
         let (dx, w) = (self.params.dx, self.params.band_width);
         if volume <= 0.0 || self.area <= 0.0 {

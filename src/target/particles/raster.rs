@@ -5,7 +5,7 @@
 //! O(Δx²) between them. Cost O(particles·(h/Δx)³) once a frame, then O(band) a sub-step,
 //! where summing at each query cost 27 hashed cells per node and sub-step.
 
-use glam::{IVec3, Mat3, Vec3};
+use glam::{IVec3, Vec3};
 use hashbrown::HashMap;
 use rayon::prelude::*;
 
@@ -29,8 +29,9 @@ struct Block {
     /// G, ∂G/∂x, ∂G/∂y and ∂G/∂z, each over the block's nodes (rows along z are the
     /// splat's vectors).
     field: Box<[[f32; NODES]; 4]>,
-    /// Σ W·v, per component, when the particles carry velocities.
-    momentum: Option<Box<[[f32; NODES]; 3]>>,
+    /// Σ W·v per component and Σ W, with the velocity's kernel
+    /// ([`super::VELOCITY_SUPPORT_RADII`]), when the particles carry velocities.
+    momentum: Option<Box<[[f32; NODES]; 4]>>,
     /// This block and its 26 neighbours have G > iso at every node: the surface is more
     /// than a block away (see [`DensityGrid::distance`]).
     deep: bool,
@@ -111,7 +112,7 @@ impl DensityGrid {
                 let mut block = Block {
                     coord,
                     field: Box::new([[0.0; NODES]; 4]),
-                    momentum: velocities.then(|| Box::new([[0.0; NODES]; 3])),
+                    momentum: velocities.then(|| Box::new([[0.0; NODES]; 4])),
                     deep: false,
                     inside: false,
                 };
@@ -403,9 +404,8 @@ fn splat(block: &mut Block, density: &Density, i: usize, dx: f32, lo: Vec3, hi: 
     // Whole rows of 8 nodes along z, outside the support weighted 0: vectors, no branch.
     let rz: [f32; 8] = std::array::from_fn(|k| (origin.z + k as i32) as f32 * dx - p.z);
     let v = density.velocities.get(i).copied();
-    // The velocity's gradient, when fitted: the velocity at a node is v + K (node − p).
-    let k = density.gradients.get(i).copied().unwrap_or(Mat3::ZERO);
     let volume = density.volumes[i];
+    let velocity_scale = density.velocity_q2_scale();
     let [g, gx, gy, gz] = &mut *block.field;
     for x in xs {
         let rx = (origin.x + x) as f32 * dx - p.x;
@@ -431,12 +431,13 @@ fn splat(block: &mut Block, density: &Density, i: usize, dx: f32, lo: Vec3, hi: 
                 gz[o] += c[k] * rz[k];
             }
             if let (Some(m), Some(v)) = (&mut block.momentum, v) {
-                let row_v = v + k * Vec3::new(rx, ry, 0.0);
                 for (n, o) in row.enumerate() {
-                    let u = row_v + k.z_axis * rz[n];
-                    m[0][o] += w[n] * u.x;
-                    m[1][o] += w[n] * u.y;
-                    m[2][o] += w[n] * u.z;
+                    let s = (1.0 - (qxy + rz[n] * rz[n] * inv_h2) * velocity_scale).max(0.0);
+                    let w = volume * s * s * s;
+                    m[0][o] += w * v.x;
+                    m[1][o] += w * v.y;
+                    m[2][o] += w * v.z;
+                    m[3][o] += w;
                 }
             }
         }
@@ -494,16 +495,16 @@ impl Target for DensityGrid {
 
 impl DensityGrid {
     /// The particles' kernel-weighted mean velocity at `p` (Shepard, Σ W·v / Σ W, with the
-    /// density's own kernel); `None` where no particle reaches or none carries a velocity.
+    /// velocity's kernel, [`super::VELOCITY_SUPPORT_RADII`]); `None` where no particle reaches or none carries a velocity.
     fn mean_velocity(&self, p: Vec3) -> Option<Vec3> {
         if !self.velocities {
             return None;
         }
         let [g, mx, my, mz] = self.interpolate(p, |b, o| match &b.momentum {
-            Some(m) => [b.field[0][o], m[0][o], m[1][o], m[2][o]],
+            Some(m) => [m[3][o], m[0][o], m[1][o], m[2][o]],
             None => EMPTY,
         });
-        (g > 1e-6).then(|| Vec3::new(mx, my, mz) / g)
+        (g > super::MIN_VELOCITY_WEIGHT).then(|| Vec3::new(mx, my, mz) / g)
     }
 }
 
@@ -593,7 +594,7 @@ mod tests {
         // the surface.
         let mut worst_node = 0.0f32;
         let mut errors = Vec::new();
-        let mut worst_velocity = 0.0f32;
+        let (mut worst_velocity, mut worst_node_velocity) = (0.0f32, 0.0f32);
         for i in 0..4000 {
             let t = i as f32 * 0.618_034;
             let dir = Vec3::new(
@@ -611,21 +612,30 @@ mod tests {
             if d.abs() < dx {
                 errors.push((grid.distance(p) - d).abs() / dx);
             }
+            // The velocity's kernel is narrower than the density's (2.5 r): between nodes,
+            // compared inside the surface (past it, at the kernel's rim, the nodes around
+            // may have no particle while the point has one); at the nodes, where the
+            // skin's carry reads it, everywhere.
             let v = grid.velocity(p);
             let u = exact.velocity(p);
-            if exact.density(p) > 0.25 * exact.iso {
+            if d < 0.0 {
                 worst_velocity = worst_velocity.max((v - u).length() / u.length().max(0.1));
             }
+            let (v, u) = (grid.velocity(node), exact.velocity(node));
+            worst_node_velocity = worst_node_velocity.max((v - u).length() / u.length().max(0.1));
         }
         let mean = errors.iter().sum::<f32>() / errors.len() as f32;
         let worst = errors.iter().copied().fold(0.0, f32::max);
-        println!("node {worst_node:e}, distance mean {mean:.4} worst {worst:.4} voxel, velocity {worst_velocity:.4}");
+        println!("node {worst_node:e}, distance mean {mean:.4} worst {worst:.4} voxel, velocity {worst_velocity:.4}, at nodes {worst_node_velocity:e}");
         assert!(worst_node < 1e-4, "{worst_node}");
         assert!(
             mean < 0.03 && worst < 0.15,
             "mean {mean} worst {worst} voxel"
         );
-        assert!(worst_velocity < 0.05, "{worst_velocity}");
+        // A mean over a few particles (2.5 r) is less smooth than the density: trilinear
+        // between nodes, 7 % of the speed at worst here.
+        assert!(worst_velocity < 0.08, "{worst_velocity}");
+        assert!(worst_node_velocity < 1e-4, "{worst_node_velocity}");
     }
 
     #[test]
