@@ -10,7 +10,7 @@ use glam::Vec3;
 
 pub use particles::{
     fluid_iso, iso_for_radius, kernel, rest_density, Density, DensityGrid,
-    DEFAULT_SMOOTHING_LENGTH, MAX_SMOOTHING_LENGTH,
+    DEFAULT_SMOOTHING_LENGTH, MAX_SMOOTHING_LENGTH, VELOCITY_SUPPORT_RADII,
 };
 pub use shapes::{Blobs, BoxShape, Skeleton, Sphere, Torus, Union};
 pub use vdb::{FogTarget, LevelSetTarget};

@@ -9,7 +9,7 @@ use super::FrameError;
 use crate::grid::REACH_VOXELS;
 use crate::particles::{self, motion::frame_velocities, Particles};
 use crate::sequence::{FramePattern, PatternError};
-use crate::target::{Density, DensityGrid, MAX_SMOOTHING_LENGTH};
+use crate::target::{Density, DensityGrid, MAX_SMOOTHING_LENGTH, VELOCITY_SUPPORT_RADII};
 #[cfg(feature = "vdb")]
 use crate::vdb::{self, Grid, WriteOptions};
 
@@ -209,7 +209,10 @@ impl ParticleInput {
         let carried = motion.is_some();
         let l = self.smoothing_length;
         let density = match (motion, &cloud.velocities, self.velocity_scale) {
-            (Some(u), ..) => density.with_velocities(&u).normalized(l),
+            (Some(u), ..) => density
+                .with_velocities(&u)
+                .normalized(l)
+                .velocity_within(VELOCITY_SUPPORT_RADII, l),
             (None, Some(v), Some(k)) => {
                 let scaled: Vec<Vec3> = v.iter().map(|&u| u * k).collect();
                 density.normalized(l).with_velocities(&scaled)

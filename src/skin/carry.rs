@@ -170,8 +170,20 @@ impl<P: Potential> Skin<P> {
             .into_par_iter()
             .map(|c| {
                 let corner = (c * BLOCK_DIM).as_vec3();
-                let kind = match origin(corner + Vec3::splat(3.5)) {
+                let centre = corner + Vec3::splat(3.5);
+                let kind = match origin(centre) {
                     (1, _) => 1,
+                    // No material near the centre: a droplet or a sheet's edge elsewhere in
+                    // the block still needs it stored. The particles' velocity reaches 2.5
+                    // radii, the voxel is at most a radius: a lattice of every other node
+                    // meets every particle's reach.
+                    (0, false) if departure_at(centre).is_none() => {
+                        let lattice = (0..64).map(|k| {
+                            let step = IVec3::new(k >> 4, (k >> 2) & 3, k & 3) * 2 + IVec3::ONE;
+                            corner + step.as_vec3()
+                        });
+                        i8::from(lattice.into_iter().any(|p| origin(p).0 != 0))
+                    }
                     (side, false) => side,
                     (side, true) => {
                         let alike = (0..8).all(|k| {

@@ -588,6 +588,7 @@ mod tests {
         let (points, velocities) = ball(r, 0.6);
         let exact = Density::new(points, h, fluid_iso(l))
             .normalized(l)
+            .velocity_within(super::super::VELOCITY_SUPPORT_RADII, l)
             .with_velocities(&velocities);
         let grid = DensityGrid::rasterize(&exact, dx);
         // Exact at the nodes, and between them within a small fraction of a voxel near
