@@ -154,6 +154,18 @@ rust::Vec<GridSummary> list_grids(rust::Str path) {
 // (delayed loading, no private copy), every leaf buffer is loaded in parallel, then the
 // file is closed. Once loaded, no leaf refers to the mapping any more, so, as with
 // open_file, nothing stays mapped and the file can be overwritten.
+static std::unique_ptr<FloatGrid> read_loaded(openvdb::io::File &file, const std::string &name) {
+  auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid(name));
+  if (!grid) throw openvdb::TypeError("grid '" + name + "' is not a float grid");
+  openvdb::tree::LeafManager<const FloatTree> leaves(grid->tree());
+  tbb::parallel_for(leaves.leafRange(), [](const auto &range) {
+    // Reading a voxel loads the leaf's buffer.
+    for (auto leaf = range.begin(); leaf; ++leaf) leaf->getValue(openvdb::Index(0));
+  });
+  file.close();
+  return wrap(grid);
+}
+
 std::unique_ptr<FloatGrid> read_float_grid(rust::Str path, rust::Str name) {
   ensure_initialized();
   auto file = std::make_unique<openvdb::io::File>(std::string(path));
@@ -161,6 +173,16 @@ std::unique_ptr<FloatGrid> read_float_grid(rust::Str path, rust::Str name) {
   file->open(/*delayLoad=*/true);
   std::string wanted(name);
   std::string found_types;
+  if (!wanted.empty() && file->hasGrid(wanted)) {
+    // By the file's unique name as printed ("a[1]", "[0]": what Rust chose from the
+    // layout), which OpenVDB's lookup resolves where the grids' names repeat or are empty.
+    openvdb::GridBase::Ptr meta = file->readGridMetadata(wanted);
+    if (meta->valueType() != "float") {
+      throw openvdb::TypeError("grid '" + wanted + "' holds " + meta->valueType() +
+                               " values, not float");
+    }
+    return read_loaded(*file, wanted);
+  }
   openvdb::GridPtrVecPtr metas = file->readAllGridMetadata();
   for (const auto &meta : *metas) {
     const bool name_ok = wanted.empty() || meta->getName() == wanted;
@@ -172,16 +194,7 @@ std::unique_ptr<FloatGrid> read_float_grid(rust::Str path, rust::Str name) {
       }
       continue;
     }
-    openvdb::GridBase::Ptr base = file->readGrid(meta->getName());
-    auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
-    if (!grid) throw openvdb::TypeError("grid '" + meta->getName() + "' is not a float grid");
-    openvdb::tree::LeafManager<const FloatTree> leaves(grid->tree());
-    tbb::parallel_for(leaves.leafRange(), [](const auto &range) {
-      // Reading a voxel loads the leaf's buffer.
-      for (auto leaf = range.begin(); leaf; ++leaf) leaf->getValue(openvdb::Index(0));
-    });
-    file->close();
-    return wrap(grid);
+    return read_loaded(*file, meta->getName());
   }
   std::string listing;
   for (const auto &meta : *metas) {

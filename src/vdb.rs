@@ -95,10 +95,11 @@ impl Grid {
             )
         } else {
             // No descriptor index to look in: OpenVDB does the lookup.
-            name
+            name.map(str::to_string)
         };
-        let ptr = ffi::bridge::read_float_grid(&path.to_string_lossy(), chosen.unwrap_or(""))
-            .map_err(|e| openvdb_read_error(path, &e))?;
+        let ptr =
+            ffi::bridge::read_float_grid(&path.to_string_lossy(), chosen.as_deref().unwrap_or(""))
+                .map_err(|e| openvdb_read_error(path, &e))?;
         Grid::from_ptr(ptr)
     }
 

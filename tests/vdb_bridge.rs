@@ -316,3 +316,51 @@ fn a_read_grid_keeps_nothing_mapped_and_survives_its_file_being_overwritten() {
     got.name = expected.name.clone();
     assert_bit_identical(&expected, &got);
 }
+
+#[test]
+fn unnamed_and_same_named_grids_are_read() {
+    // pyopenvdb names a grid "" unless told; Houdini exports may repeat a name. OpenVDB
+    // tells them apart in the file by a unique name ("[N]" when printed).
+    let dir = common::scratch();
+    let sphere = |r: f32, name: &str| {
+        let mut data = Grid::level_set_sphere(r, [0.0; 3], 0.1, 3.0)
+            .unwrap()
+            .to_data()
+            .unwrap();
+        data.name = name.into();
+        data
+    };
+    let (a, b) = (sphere(1.0, ""), sphere(0.5, ""));
+    let unnamed = dir.path().join("unnamed.vdb");
+    common::write_grid(&unnamed, &a);
+    assert_bit_identical(&a, &Grid::read(&unnamed, None).unwrap().to_data().unwrap());
+    assert_bit_identical(
+        &a,
+        &Grid::read(&unnamed, Some("0")).unwrap().to_data().unwrap(),
+    );
+
+    let options = WriteOptions::default();
+    let two = dir.path().join("two.vdb");
+    let (ga, gb) = (Grid::from_data(&a).unwrap(), Grid::from_data(&b).unwrap());
+    vdb::write_grids(&two, &[(&ga, options), (&gb, options)], &metadata()).unwrap();
+    let read = |name: Option<&str>| Grid::read(&two, name).unwrap().to_data().unwrap();
+    assert_bit_identical(&a, &read(None));
+    assert_bit_identical(&b, &read(Some("1")));
+    assert_bit_identical(&b, &read(Some("[1]")));
+
+    let (a, b) = (sphere(1.0, "surface"), sphere(0.5, "surface"));
+    let (ga, gb) = (Grid::from_data(&a).unwrap(), Grid::from_data(&b).unwrap());
+    vdb::write_grids(&two, &[(&ga, options), (&gb, options)], &metadata()).unwrap();
+    assert_bit_identical(&a, &read(None));
+    assert_bit_identical(&a, &read(Some("surface")));
+    assert_bit_identical(&b, &read(Some("surface[1]")));
+    assert_bit_identical(&b, &read(Some("1")));
+    // A name that is not there lists the grids as printed.
+    let err = Grid::read(&two, Some("nope")).err().unwrap().to_string();
+    assert!(err.contains("'surface[1]'"), "{err}");
+
+    // The commands read them too.
+    let out = dir.path().join("m.obj");
+    let run = common::activeskin(&["mesh", unnamed.to_str().unwrap(), out.to_str().unwrap()]);
+    common::assert_ok(&run);
+}

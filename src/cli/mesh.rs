@@ -17,7 +17,8 @@ pub struct MeshArgs {
     input: PathBuf,
     /// The mesh to write: .obj or .ply.
     output: PathBuf,
-    /// Grid name (default: the first float grid).
+    /// Grid name, `name[1]` for a second grid of one name, or index in the file
+    /// (default: the first float grid).
     #[arg(long)]
     grid: Option<String>,
     /// Surface density, for fog volumes (inside where the density is larger).

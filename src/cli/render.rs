@@ -22,7 +22,8 @@ pub struct RenderArgs {
     /// The scene's up axis: y (Houdini, Maya) or z (Blender).
     #[arg(long, value_enum, default_value_t = UpArg::Y)]
     up: UpArg,
-    /// Grid name (default: the first float grid).
+    /// Grid name, `name[1]` for a second grid of one name, or index in the file
+    /// (default: the first float grid).
     #[arg(long)]
     grid: Option<String>,
     /// Surface density, for fog volumes.

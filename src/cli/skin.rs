@@ -26,7 +26,8 @@ pub struct SkinArgs {
     /// Keep the last target through missing frames instead of stopping.
     #[arg(long)]
     hold_missing: bool,
-    /// Target grid name (default: the first float grid of each file).
+    /// Target grid name, `name[1]` for a second grid of one name, or index in the file
+    /// (default: the first float grid of each file).
     #[arg(long)]
     grid: Option<String>,
     /// Density of the surface, for fog volumes.

@@ -11,7 +11,8 @@ use anyhow::bail;
 pub struct ValidateArgs {
     /// A VDB file holding a level set.
     file: PathBuf,
-    /// Grid name (default: the first float grid).
+    /// Grid name, `name[1]` for a second grid of one name, or index in the file
+    /// (default: the first float grid).
     #[arg(long)]
     grid: Option<String>,
 }

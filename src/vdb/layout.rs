@@ -31,6 +31,18 @@ pub struct Layout {
     pub grids: Vec<(String, String)>,
 }
 
+/// OpenVDB's separator in a file's unique grid names: the second grid named `a` is
+/// `a\x1e1`, an unnamed one `\x1e0` (`GridDescriptor::addSuffix`).
+const UNIQUE_SEPARATOR: char = '\x1e';
+
+/// A unique grid name as OpenVDB prints it: `a[1]`, `[0]`.
+pub fn printable_name(unique: &str) -> String {
+    match unique.split_once(UNIQUE_SEPARATOR) {
+        Some((name, n)) => format!("{name}[{n}]"),
+        None => unique.to_string(),
+    }
+}
+
 impl Layout {
     /// `grids: 'a' (Tree_float_5_4_3), ...` for error messages.
     pub fn describe_grids(&self) -> String {
@@ -40,30 +52,49 @@ impl Layout {
         let list: Vec<String> = self
             .grids
             .iter()
-            .map(|(name, kind)| format!("'{name}' ({kind})"))
+            .map(|(name, kind)| format!("'{}' ({kind})", printable_name(name)))
             .collect();
         format!("grids: {}", list.join(", "))
+    }
+
+    /// The grid `wanted` names: a grid of that name (the first of several), of that
+    /// printed unique name (`a[1]`, `[0]`), else the grid at that index in file order.
+    fn find(&self, wanted: &str) -> Option<&(String, String)> {
+        let base = |unique: &str| {
+            unique
+                .split_once(UNIQUE_SEPARATOR)
+                .map_or(unique, |(name, _)| name)
+                .to_string()
+        };
+        self.grids
+            .iter()
+            .find(|(g, _)| g == wanted)
+            .or_else(|| self.grids.iter().find(|(g, _)| printable_name(g) == wanted))
+            .or_else(|| self.grids.iter().find(|(g, _)| base(g) == wanted))
+            .or_else(|| wanted.parse::<usize>().ok().and_then(|i| self.grids.get(i)))
     }
 }
 
 impl Layout {
-    /// The grid to read: `name`, or the first float grid in file order (OpenVDB's own
-    /// lookup goes by sorted name). `Err` explains, listing the grids.
-    pub fn choose_float_grid<'a>(&'a self, name: Option<&'a str>) -> Result<&'a str, String> {
+    /// The grid to read, by its unique name in the file as OpenVDB's lookup takes it
+    /// (`a[1]`: given as stored, `a\x1e1`, it finds the first `a`): `name`
+    /// ([`Layout::find`]), or the first float grid in file order (OpenVDB's own lookup goes by sorted name). `Err`
+    /// explains, listing the grids.
+    pub fn choose_float_grid(&self, name: Option<&str>) -> Result<String, String> {
         let is_float = |kind: &str| kind.starts_with("Tree_float_");
         match name {
-            Some(n) => match self.grids.iter().find(|(g, _)| g == n) {
+            Some(n) => match self.find(n) {
                 None => Err(format!("no grid named '{n}' ({})", self.describe_grids())),
                 Some((_, kind)) if !is_float(kind) => {
                     Err(format!("grid '{n}' is a {kind}, not a float grid"))
                 }
-                Some(_) => Ok(n),
+                Some((g, _)) => Ok(printable_name(g)),
             },
             None => self
                 .grids
                 .iter()
                 .find(|(_, kind)| is_float(kind))
-                .map(|(g, _)| g.as_str())
+                .map(|(g, _)| printable_name(g))
                 .ok_or_else(|| format!("no float grid ({})", self.describe_grids())),
         }
     }
