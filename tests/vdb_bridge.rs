@@ -355,6 +355,13 @@ fn unnamed_and_same_named_grids_are_read() {
     assert_bit_identical(&a, &read(Some("surface")));
     assert_bit_identical(&b, &read(Some("surface[1]")));
     assert_bit_identical(&b, &read(Some("1")));
+    let listed: Vec<String> = vdb::list_grids(&two)
+        .unwrap()
+        .into_iter()
+        .map(|g| g.name)
+        .collect();
+    assert_eq!(listed, ["surface[0]", "surface[1]"]);
+    assert_bit_identical(&a, &read(Some("surface[0]")));
     // A name that is not there lists the grids as printed.
     let err = Grid::read(&two, Some("nope")).err().unwrap().to_string();
     assert!(err.contains("'surface[1]'"), "{err}");

@@ -43,6 +43,13 @@ pub fn printable_name(unique: &str) -> String {
     }
 }
 
+/// The grid's own name within a unique name (`a` of `a\x1e1`).
+pub fn base_name(unique: &str) -> &str {
+    unique
+        .split_once(UNIQUE_SEPARATOR)
+        .map_or(unique, |(name, _)| name)
+}
+
 impl Layout {
     /// `grids: 'a' (Tree_float_5_4_3), ...` for error messages.
     pub fn describe_grids(&self) -> String {
@@ -60,17 +67,11 @@ impl Layout {
     /// The grid `wanted` names: a grid of that name (the first of several), of that
     /// printed unique name (`a[1]`, `[0]`), else the grid at that index in file order.
     fn find(&self, wanted: &str) -> Option<&(String, String)> {
-        let base = |unique: &str| {
-            unique
-                .split_once(UNIQUE_SEPARATOR)
-                .map_or(unique, |(name, _)| name)
-                .to_string()
-        };
         self.grids
             .iter()
             .find(|(g, _)| g == wanted)
             .or_else(|| self.grids.iter().find(|(g, _)| printable_name(g) == wanted))
-            .or_else(|| self.grids.iter().find(|(g, _)| base(g) == wanted))
+            .or_else(|| self.grids.iter().find(|(g, _)| base_name(g) == wanted))
             .or_else(|| wanted.parse::<usize>().ok().and_then(|i| self.grids.get(i)))
     }
 }
