@@ -95,10 +95,17 @@ rust::Vec<GridSummary> list_grids(rust::Str path) {
   // register, as Mantaflow's int32_trnc) is listed from its metadata with the reason, and
   // hides nothing else.
   openvdb::GridPtrVecPtr metas = file->readAllGridMetadata();
+  // Each grid's unique name as printed ("a[1]", "[0]" where names repeat or are empty),
+  // in the order of the metadata (both walk the file's descriptors): read by it, a
+  // repeated name is that grid and not the first, and OpenVDB has nothing to warn about.
+  std::vector<std::string> unique;
+  for (auto it = file->beginName(); it != file->endName(); ++it) unique.push_back(it.gridName());
+  if (unique.size() != metas->size()) throw openvdb::IoError("inconsistent grid descriptors");
   rust::Vec<GridSummary> out;
-  for (const auto &meta : *metas) {
+  for (size_t i = 0; i < metas->size(); ++i) {
+    const auto &meta = (*metas)[i];
     GridSummary s;
-    s.name = meta->getName();
+    s.name = unique[i];
     s.value_type = meta->valueType();
     s.grid_class = to_class(meta->getGridClass());
     const auto &xf = meta->transform();
@@ -112,7 +119,7 @@ rust::Vec<GridSummary> list_grids(rust::Str path) {
     s.background = "?";
     openvdb::GridBase::Ptr grid;
     try {
-      grid = file->readGrid(meta->getName());
+      grid = file->readGrid(unique[i]);
     } catch (const std::exception &e) {
       s.error = e.what();
       // What the writer recorded of it (OpenVDB's file_* statistics).

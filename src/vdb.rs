@@ -502,21 +502,14 @@ pub fn list_grids(path: &Path) -> Result<Vec<GridSummary>, VdbError> {
     let mut grids = ffi::bridge::list_grids(&path.to_string_lossy())
         .map_err(|e| openvdb_read_error(path, &e))?;
     // OpenVDB lists grids sorted by name; show them in file order.
+    // Named as OpenVDB prints the file's unique names (`a[1]`, `[0]`), which `--grid` takes.
     let position = |name: &str| {
         layout
             .grids
             .iter()
-            .position(|(g, _)| layout::base_name(g) == name)
+            .position(|(g, _)| layout::printable_name(g) == name)
     };
     grids.sort_by_key(|g| position(&g.name));
-    // Repeated and empty names as OpenVDB prints the file's unique ones (`a[1]`, `[0]`),
-    // which `--grid` takes; the sort is stable and OpenVDB keeps a repeated name's grids
-    // in file order, so the i-th summary is the i-th descriptor.
-    if grids.len() == layout.grids.len() {
-        for (g, (unique, _)) in grids.iter_mut().zip(&layout.grids) {
-            g.name = layout::printable_name(unique);
-        }
-    }
     Ok(grids)
 }
 

@@ -355,18 +355,23 @@ fn unnamed_and_same_named_grids_are_read() {
     assert_bit_identical(&a, &read(Some("surface")));
     assert_bit_identical(&b, &read(Some("surface[1]")));
     assert_bit_identical(&b, &read(Some("1")));
-    let listed: Vec<String> = vdb::list_grids(&two)
-        .unwrap()
-        .into_iter()
-        .map(|g| g.name)
-        .collect();
+    let summaries = vdb::list_grids(&two).unwrap();
+    let listed: Vec<&str> = summaries.iter().map(|g| g.name.as_str()).collect();
     assert_eq!(listed, ["surface[0]", "surface[1]"]);
+    // Each described from its own grid, not the first of the name twice.
+    assert!(summaries[0].active_voxels > summaries[1].active_voxels);
     assert_bit_identical(&a, &read(Some("surface[0]")));
     // A name that is not there lists the grids as printed.
     let err = Grid::read(&two, Some("nope")).err().unwrap().to_string();
     assert!(err.contains("'surface[1]'"), "{err}");
 
-    // The commands read them too.
+    // The commands read them too, and OpenVDB has no warning to print (it printed two
+    // coloured WARN lines on stdout when `info` read repeated names by name).
+    let info = common::activeskin(&["info", two.to_str().unwrap()]);
+    common::assert_ok(&info);
+    let said = String::from_utf8_lossy(&info.stdout);
+    assert!(!said.contains("WARN"), "{said}");
+    assert!(said.contains("grid 'surface[1]'"), "{said}");
     let out = dir.path().join("m.obj");
     let run = common::activeskin(&["mesh", unnamed.to_str().unwrap(), out.to_str().unwrap()]);
     common::assert_ok(&run);

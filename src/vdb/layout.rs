@@ -44,7 +44,7 @@ pub fn printable_name(unique: &str) -> String {
 }
 
 /// The grid's own name within a unique name (`a` of `a\x1e1`).
-pub fn base_name(unique: &str) -> &str {
+fn base_name(unique: &str) -> &str {
     unique
         .split_once(UNIQUE_SEPARATOR)
         .map_or(unique, |(name, _)| name)
