@@ -37,6 +37,32 @@ pub fn temporary_path(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
 }
 
+/// Why `path` cannot be read as a file, when it exists but is not one (a directory, a
+/// named pipe, which would block a reader until something writes to it, a socket or a
+/// device) or cannot be looked at (a symlink loop, no permission); `None` when it is a
+/// regular file or does not exist. Asks the file system only: nothing is opened.
+pub fn not_a_file(path: &Path) -> Option<String> {
+    use std::os::unix::fs::FileTypeExt;
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_file() => None,
+        Ok(m) => {
+            let t = m.file_type();
+            let kind = if t.is_dir() {
+                "a directory"
+            } else if t.is_fifo() {
+                "a named pipe (FIFO)"
+            } else if t.is_socket() {
+                "a socket"
+            } else {
+                "a device"
+            };
+            Some(format!("is {kind}, not a file"))
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => Some(format!("cannot be read: {e}")),
+    }
+}
+
 /// Runs `write` on a temporary path, then renames it to `path`. On any failure the
 /// temporary file is removed and `path` is left as it was. A `path` that exists and is
 /// not a regular file — `/dev/null`, a named pipe, a device — is written in place: renamed

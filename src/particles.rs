@@ -57,6 +57,9 @@ pub fn read(path: &Path) -> Result<Particles, ParticleError> {
         path: path.to_path_buf(),
         message,
     };
+    if let Some(why) = crate::io::not_a_file(path) {
+        return Err(error(why));
+    }
     let ext = path
         .extension()
         .and_then(|e| e.to_str())

@@ -516,11 +516,12 @@ pub fn list_grids(path: &Path) -> Result<Vec<GridSummary>, VdbError> {
 /// Clear messages for every way a path is not a whole VDB file, before OpenVDB sees it
 /// (see [`layout`]).
 fn check_vdb_file(path: &Path) -> Result<layout::Layout, VdbError> {
+    // Before opening: opening a named pipe waits for a writer.
+    if let Some(why) = crate::io::not_a_file(path) {
+        return Err(VdbError::file(path, why));
+    }
     let file = std::fs::File::open(path).map_err(|e| VdbError::file(path, io_reason(&e)))?;
     let meta = file.metadata().map_err(|e| VdbError::file(path, e))?;
-    if meta.is_dir() {
-        return Err(VdbError::file(path, "is a directory, not a VDB file"));
-    }
     layout::check(std::io::BufReader::new(file), meta.len()).map_err(|m| VdbError::file(path, m))
 }
 

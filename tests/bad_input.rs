@@ -342,3 +342,99 @@ fn full_disk_stops_with_one_line_and_keeps_written_frames() {
         );
     }
 }
+
+/// Runs activeskin, killed after a minute: a named pipe opened for reading waits for a
+/// writer, forever.
+fn within_a_minute(args: &[&str]) -> std::process::Output {
+    Command::new("timeout")
+        .arg("60")
+        .arg(env!("CARGO_BIN_EXE_activeskin"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn mkfifo(path: &Path) {
+    let made = Command::new("mkfifo").arg(path).status().unwrap();
+    assert!(made.success());
+}
+
+#[test]
+fn frames_that_are_not_files_are_errors_not_missing_frames() {
+    // A directory, a named pipe and a symlink loop where frame 2 should be: one line
+    // saying what it is, never a missing frame that --hold-missing would hold over.
+    type Make = fn(&Path);
+    let cases: [(&str, &str, Make); 3] = [
+        ("a directory", "is a directory", |p| {
+            std::fs::create_dir(p).unwrap()
+        }),
+        ("a FIFO", "named pipe", mkfifo),
+        ("a symlink loop", "symbolic links", |p| {
+            std::os::unix::fs::symlink(p, p).unwrap()
+        }),
+    ];
+    for (what, says, make) in cases {
+        skin_stops_at_frame_2(what, |p| {
+            std::fs::remove_file(p).unwrap();
+            make(p);
+        });
+        let dir = common::scratch();
+        for frame in [1, 3] {
+            write(
+                &dir.path().join(format!("t.{frame:04}.vdb")),
+                &sphere(1.0 / 16.0),
+            );
+        }
+        make(&dir.path().join("t.0002.vdb"));
+        let out = dir.path().join("s.####.obj");
+        let held = within_a_minute(&[
+            "skin",
+            "--target",
+            dir.path().join("t.####.vdb").to_str().unwrap(),
+            "--frames",
+            "1-3",
+            "--hold-missing",
+            "--mesh",
+            out.to_str().unwrap(),
+            "-q",
+        ]);
+        assert_fails(&held, 1, "t.0002.vdb", what);
+        assert!(common::stderr(&held).contains(says), "{what}");
+    }
+
+    // Read directly, a named pipe is refused at once by every reader.
+    let dir = common::scratch();
+    for name in ["p.vdb", "p.ply", "p.bgeo", "p.vtk"] {
+        let fifo = dir.path().join(name);
+        mkfifo(&fifo);
+        let fifo = fifo.to_str().unwrap();
+        let mesh = dir.path().join("m.obj");
+        let runs: Vec<Vec<&str>> = if name.ends_with(".vdb") {
+            vec![
+                vec!["info", fifo],
+                vec!["mesh", fifo, mesh.to_str().unwrap()],
+                vec!["validate", fifo],
+            ]
+        } else {
+            vec![vec![
+                "particles",
+                "--particles",
+                fifo,
+                "--radius",
+                "0.05",
+                "--frames",
+                "1-2",
+                "--mesh",
+                mesh.to_str().unwrap(),
+                "-q",
+            ]]
+        };
+        for args in runs {
+            let out = within_a_minute(&args);
+            assert_fails(&out, 1, name, &format!("{args:?}"));
+            assert!(common::stderr(&out).contains("named pipe"), "{args:?}");
+        }
+        // The scratch folder checks its meshes (.ply too) when dropped.
+        std::fs::remove_file(fifo).unwrap();
+    }
+}

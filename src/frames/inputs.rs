@@ -40,6 +40,10 @@ impl InputFrames {
                     range: (a, b),
                 });
             }
+            Err(PatternError::NoFrameNumber(_)) if crate::io::not_a_file(Path::new(spec)).is_some() => {
+                let why = crate::io::not_a_file(Path::new(spec)).unwrap_or_default();
+                return Err(FrameError::Data(format!("{spec}: {why}")));
+            }
             Err(PatternError::NoFrameNumber(_)) => {
                 return Err(FrameError::Usage(format!(
                     "{flag} '{spec}': no such file, and no frame number for a sequence (use ####, %04d, $F4, $F or {{}})"
@@ -69,6 +73,10 @@ impl InputFrames {
         let path = self.pattern.path(frame);
         if self.pattern.is_held() || self.existing.binary_search(&frame).is_ok() {
             return Ok(path);
+        }
+        // There but not a file: an error, never a missing frame to hold over.
+        if let Some(why) = crate::io::not_a_file(&path) {
+            return Err(FrameError::Data(format!("{}: {why}", path.display())));
         }
         let held = self.existing.iter().rev().find(|&&f| f < frame);
         Err(FrameError::Data(match held {
