@@ -40,14 +40,13 @@ impl InputFrames {
                     range: (a, b),
                 });
             }
-            Err(PatternError::NoFrameNumber(_)) if crate::io::not_a_file(Path::new(spec)).is_some() => {
-                let why = crate::io::not_a_file(Path::new(spec)).unwrap_or_default();
-                return Err(FrameError::Data(format!("{spec}: {why}")));
-            }
             Err(PatternError::NoFrameNumber(_)) => {
+                if let Some(why) = crate::io::not_a_file(Path::new(spec)) {
+                    return Err(FrameError::Data(format!("{spec}: {why}")));
+                }
                 return Err(FrameError::Usage(format!(
                     "{flag} '{spec}': no such file, and no frame number for a sequence (use ####, %04d, $F4, $F or {{}})"
-                )))
+                )));
             }
             other => other.map_err(|e| FrameError::Usage(e.to_string()))?,
         };

@@ -52,10 +52,11 @@ impl ParticleRun<'_> {
             let path = input.pattern.path(frame);
             let exists =
                 |f: i64| input.pattern.is_held() || input.existing.binary_search(&f).is_ok();
-            if let Some(why) = crate::io::not_a_file(&path) {
-                return Err(FrameError::Data(format!("{}: {why}", path.display())));
-            }
             if !exists(frame) {
+                // There but not a file: said so, not called missing.
+                if let Some(why) = crate::io::not_a_file(&path) {
+                    return Err(FrameError::Data(format!("{}: {why}", path.display())));
+                }
                 return Err(FrameError::Data(format!(
                     "{}: frame {frame} of the particles is missing",
                     path.display()

@@ -149,14 +149,11 @@ impl<P: Potential> Skin<P> {
         // else part of it came from the band, and a tile would move the skin to its faces.
         let coords = super::seed::blocks_around(&map.parts(), map.bounds(), xf, w);
         // Where the material at node `ijk` came from: 1 a stored block, −1 an inside
-        // tile, 0 outside; and whether a stored block is next to it.
-        let origin = |ijk: Vec3| -> (i8, bool) {
-            let Some(from) = departure_at(ijk) else {
-                return (0, false);
-            };
-            let from = block_of(from.floor().as_ivec3());
+        // tile, 0 outside; and whether a stored block is next to it. `None`: no material.
+        let origin = |ijk: Vec3| -> Option<(i8, bool)> {
+            let from = block_of(departure_at(ijk)?.floor().as_ivec3());
             if old.find(from).is_some() {
-                return (1, true);
+                return Some((1, true));
             }
             let side = if old.inside_tiles().contains(&from) {
                 -1
@@ -164,31 +161,31 @@ impl<P: Potential> Skin<P> {
                 0
             };
             let near = AROUND.iter().any(|&d| old.find(from + d).is_some());
-            (side, near)
+            Some((side, near))
         };
+        let side_at = |ijk: Vec3| origin(ijk).map_or(0, |(side, _)| side);
         let classified: Vec<(IVec3, i8)> = coords
             .into_par_iter()
             .map(|c| {
                 let corner = (c * BLOCK_DIM).as_vec3();
-                let centre = corner + Vec3::splat(3.5);
-                let kind = match origin(centre) {
-                    (1, _) => 1,
+                let kind = match origin(corner + Vec3::splat(3.5)) {
                     // No material near the centre: a droplet or a sheet's edge elsewhere in
                     // the block still needs it stored. The particles' velocity reaches 2.5
                     // radii, the voxel is at most a radius: a lattice of every other node
                     // meets every particle's reach.
-                    (0, false) if departure_at(centre).is_none() => {
-                        let lattice = (0..64).map(|k| {
+                    None => {
+                        let mut lattice = (0..64).map(|k| {
                             let step = IVec3::new(k >> 4, (k >> 2) & 3, k & 3) * 2 + IVec3::ONE;
                             corner + step.as_vec3()
                         });
-                        i8::from(lattice.into_iter().any(|p| origin(p).0 != 0))
+                        i8::from(lattice.any(|p| side_at(p) != 0))
                     }
-                    (side, false) => side,
-                    (side, true) => {
+                    Some((1, _)) => 1,
+                    Some((side, false)) => side,
+                    Some((side, true)) => {
                         let alike = (0..8).all(|k| {
                             let step = IVec3::new(k >> 2, (k >> 1) & 1, k & 1) * (BLOCK_DIM - 1);
-                            origin(corner + step.as_vec3()).0 == side
+                            side_at(corner + step.as_vec3()) == side
                         });
                         if alike {
                             side

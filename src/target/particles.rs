@@ -34,9 +34,9 @@ pub fn kernel(q: f32) -> f32 {
 pub const DEFAULT_SMOOTHING_LENGTH: f32 = 2.0;
 
 /// The support of the kernel that averages the velocities of particles matched from frame
-/// to frame, in particle radii ([`Density::velocity_within`]): the skin lies about a radius past the outer particles, and
-/// over this support a node there sees the outer layer only, whose motion is the
-/// surface's. Over the density's own support (4 radii at the default smoothing length)
+/// to frame, in particle radii ([`Density::velocity_within`]): the skin lies about a radius
+/// past the outer particles, and over this support a node there sees the outer layer
+/// only, whose motion is the surface's. Over the density's own support (4 radii at the default smoothing length)
 /// the mean reaches two layers deeper, whose motion is not the surface's: on the
 /// SPlisHSPlasH dam break, carried by the mean over 2.5 radii instead of 4 (each particle's
 /// velocity gradient then no longer needed), the surface's temporal noise fell from 1.22×

@@ -79,8 +79,8 @@ impl Layout {
 impl Layout {
     /// The grid to read, by its unique name in the file as OpenVDB's lookup takes it
     /// (`a[1]`: given as stored, `a\x1e1`, it finds the first `a`): `name`
-    /// ([`Layout::find`]), or the first float grid in file order (OpenVDB's own lookup goes by sorted name). `Err`
-    /// explains, listing the grids.
+    /// ([`Layout::find`]), or the first float grid in file order (OpenVDB's own lookup
+    /// goes by sorted name). `Err` explains, listing the grids.
     pub fn choose_float_grid(&self, name: Option<&str>) -> Result<String, String> {
         let is_float = |kind: &str| kind.starts_with("Tree_float_");
         match name {

@@ -495,7 +495,8 @@ impl Target for DensityGrid {
 
 impl DensityGrid {
     /// The particles' kernel-weighted mean velocity at `p` (Shepard, Σ W·v / Σ W, with the
-    /// velocity's kernel, [`super::VELOCITY_SUPPORT_RADII`]); `None` where no particle reaches or none carries a velocity.
+    /// velocity's kernel, [`super::VELOCITY_SUPPORT_RADII`]); `None` where no particle
+    /// reaches or none carries a velocity.
     fn mean_velocity(&self, p: Vec3) -> Option<Vec3> {
         if !self.velocities {
             return None;
