@@ -49,6 +49,18 @@ impl<F: Flow + ?Sized + Send> Flow for std::sync::Arc<F> {
 /// ([`crate::skin::Skin::carry`]) instead of sub-steps of a velocity.
 pub trait FlowMap: Sync {
     fn departure(&self, p: Vec3, duration: f32) -> Option<Vec3>;
+    /// [`FlowMap::departure`] at each node of one block, the node at offset `o` (OpenVDB's
+    /// leaf order) at `corner + dx·offset_coords(o)`; node by node unless a map knows
+    /// better (a grid sharing the nodes reads them without interpolating).
+    fn block_departures(&self, corner: Vec3, dx: f32, duration: f32, out: &mut Vec<Option<Vec3>>) {
+        out.clear();
+        out.extend((0..crate::grid::BLOCK_NODES).map(|o| {
+            self.departure(
+                corner + crate::grid::offset_coords(o).as_vec3() * dx,
+                duration,
+            )
+        }));
+    }
     /// Where the material is now.
     fn bounds(&self) -> Aabb;
     /// Boxes that together hold the material now: by default its bounds
@@ -61,6 +73,9 @@ pub trait FlowMap: Sync {
 impl<F: FlowMap + ?Sized + Send> FlowMap for std::sync::Arc<F> {
     fn departure(&self, p: Vec3, duration: f32) -> Option<Vec3> {
         (**self).departure(p, duration)
+    }
+    fn block_departures(&self, corner: Vec3, dx: f32, duration: f32, out: &mut Vec<Option<Vec3>>) {
+        (**self).block_departures(corner, dx, duration, out)
     }
     fn bounds(&self) -> Aabb {
         (**self).bounds()

@@ -10,9 +10,7 @@ use rayon::prelude::*;
 use super::{band, Skin};
 use crate::flow::FlowMap;
 use crate::grid::tube::Reach;
-use crate::grid::{
-    block_of, node_offset, offset_coords, Potential, SparseGrid, AROUND, BLOCK_DIM, BLOCK_NODES,
-};
+use crate::grid::{block_of, node_offset, Potential, SparseGrid, AROUND, BLOCK_DIM, BLOCK_NODES};
 use crate::stencil::limited_tricubic;
 
 /// A box of the old grid's nodes, copied once for the nodes of a new block whose
@@ -86,19 +84,19 @@ impl Window {
 }
 
 /// Sets every node of the blocks from index `first` on to the old potential where its
-/// material was (`departure` in node units; `None`: outside).
+/// material was (`departures` of a block's nodes from its first node, in node units;
+/// `None`: outside).
 fn carry_blocks<P: Potential>(
     grid: &mut SparseGrid<P>,
     first: usize,
     old: &SparseGrid<P>,
-    departure: &(impl Fn(IVec3) -> Option<Vec3> + Sync),
+    departures: &(impl Fn(IVec3, &mut Vec<Option<Vec3>>) + Sync),
 ) {
     grid.blocks_mut()[first..].par_iter_mut().for_each_init(
         || (Window::new(), Vec::with_capacity(BLOCK_NODES)),
         |(window, from), block| {
             let base = block.coord * BLOCK_DIM;
-            from.clear();
-            from.extend((0..BLOCK_NODES).map(|o| departure(base + offset_coords(o))));
+            departures(base, from);
             let (mut lo, mut hi) = (IVec3::MAX, IVec3::MIN);
             for u in from.iter().flatten() {
                 let b = u.floor().as_ivec3();
@@ -141,7 +139,12 @@ impl<P: Potential> Skin<P> {
                 .filter(|p| p.is_finite())
                 .map(to_nodes)
         };
-        let departure = |ijk: IVec3| departure_at(ijk.as_vec3());
+        let departures = |base: IVec3, out: &mut Vec<Option<Vec3>>| {
+            map.block_departures(xf.apply(base.as_vec3()), dx, duration, out);
+            for u in out.iter_mut() {
+                *u = u.filter(|p| p.is_finite()).map(to_nodes);
+            }
+        };
 
         // Every block of the material's box (and one around), by where its material came
         // from: 1 stored, −1 inside tile, 0 outside. A block is a tile only when its centre
@@ -207,7 +210,7 @@ impl<P: Potential> Skin<P> {
             }
         }
         band::start_consistently(&mut grid);
-        carry_blocks(&mut grid, 0, &old, &departure);
+        carry_blocks(&mut grid, 0, &old, &departures);
         // The surface may cross into blocks whose centres came from tiles: store them,
         // carried too, until every crossed cell is (as a start does).
         for _ in 0..4 {
@@ -219,7 +222,7 @@ impl<P: Potential> Skin<P> {
             for c in missing {
                 grid.touch(c);
             }
-            carry_blocks(&mut grid, first, &old, &departure);
+            carry_blocks(&mut grid, first, &old, &departures);
         }
         drop(old);
         band::clamp_at_crossings(&mut grid, w, &mut self.rates);
