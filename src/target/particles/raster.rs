@@ -320,11 +320,17 @@ impl DensityGrid {
                 add(at(block, offset(local + c)), weight(t, c));
             }
         } else {
+            // Corners in two (or four, eight) blocks: each block looked up once.
+            let first = base >> 3;
+            let apart: IVec3 = ((base + IVec3::ONE) >> 3) - first;
+            let mut blocks: [Option<Option<&Block>>; 8] = [None; 8];
             for corner in 0..8 {
                 let c = IVec3::new(corner >> 2, (corner >> 1) & 1, corner & 1);
-                let node = base + c;
-                if let Some(block) = self.block(node >> 3) {
-                    add(at(block, offset(node & (DIM - 1))), weight(t, c));
+                let b: IVec3 = c * apart;
+                let slot = (b.x << 2 | b.y << 1 | b.z) as usize;
+                let block = *blocks[slot].get_or_insert_with(|| self.block(first + b));
+                if let Some(block) = block {
+                    add(at(block, offset((base + c) & (DIM - 1))), weight(t, c));
                 }
             }
         }
