@@ -71,6 +71,10 @@ pub struct FrameInput<'t> {
     /// Seed the skin where the target has material it has none near ([`AnySkin::seed`]):
     /// for simulations (an emitter, a droplet the skin missed), not for morphs.
     pub seed: bool,
+    /// The volume the input holds at this frame when it conserves one (particles of an
+    /// incompressible liquid): the skin is held to it once attracted
+    /// ([`AnySkin::hold_volume`]).
+    pub volume: Option<f64>,
 }
 
 impl<'t> FrameInput<'t> {
@@ -81,6 +85,7 @@ impl<'t> FrameInput<'t> {
             flow: None,
             carried: None,
             seed: false,
+            volume: None,
         }
     }
 }
@@ -164,6 +169,9 @@ pub fn run<'t>(
             if input.seed {
                 skin.seed(&*input.target);
             }
+            if let Some(volume) = input.volume {
+                skin.hold_volume(volume);
+            }
             previous = Some(input.flow);
             substeps
         };
@@ -173,7 +181,7 @@ pub fn run<'t>(
         }
         let stats = crate::skin::StepStats {
             substeps,
-            ..skin.stats()
+            ..skin.stats_with(outputs.reports_topology())
         };
         outputs.write_frame(frame, &skin, &level_set, &stats, started)?;
     }

@@ -253,14 +253,24 @@ impl<P: Potential> Skin<P> {
     }
 
     pub fn stats(&self) -> StepStats {
+        self.stats_with(true)
+    }
+
+    /// [`Skin::stats`], the mesh's χ and components (a walk over the whole mesh) left at
+    /// 0 unless `topology`.
+    pub fn stats_with(&self, topology: bool) -> StepStats {
         StepStats {
             substeps: 0,
             band_nodes: self.grid.active_node_count(),
             blocks: self.grid.block_count(),
             area: self.area,
             volume: self.volume,
-            euler_characteristic: self.mesh.euler_characteristic(),
-            components: self.mesh.components(),
+            euler_characteristic: if topology {
+                self.mesh.euler_characteristic()
+            } else {
+                0
+            },
+            components: if topology { self.mesh.components() } else { 0 },
             max_change_voxels: self.last_change,
             stopped: None,
         }
@@ -586,6 +596,13 @@ impl<P: Potential> Skin<P> {
         self.polygonizer
             .run(&self.grid, self.xf, &mut self.mesh, &mut self.crossings);
         (self.area, self.volume) = self.mesh.area_and_volume();
+    }
+
+    /// Holds the skin to `volume` (world units³) by the uniform normal offset that gives
+    /// it back (§5.2's constraint met at once): for inputs that conserve their volume,
+    /// such as an incompressible liquid's particles, whose density's iso-surface does not.
+    pub fn hold_volume(&mut self, volume: f64) {
+        self.keep_volume(volume);
     }
 
     /// Sets the clock (seconds), e.g. after [`Skin::restore`].

@@ -124,6 +124,7 @@ fn a_thrown_ball_keeps_its_volume_and_no_lag_in_few_sub_steps() {
     };
     let first_volume = lines[0]["volume"].as_f64().unwrap();
     let mut report = Vec::new();
+    let mut fresh_volumes = Vec::new();
     for (k, line) in lines.iter().enumerate() {
         let f = k + 1;
         let volume = line["volume"].as_f64().unwrap() / first_volume;
@@ -148,16 +149,89 @@ fn a_thrown_ball_keeps_its_volume_and_no_lag_in_few_sub_steps() {
         .stats()
         .volume
             / first_volume;
+        fresh_volumes.push(fresh);
         report.push(format!(
-            "{f}: volume {volume:.3} (fresh {fresh:.3}), {lag:.2} voxel, {substeps} sub-steps"
+            "{f}: volume {volume:.4} (fresh {fresh:.3}), {lag:.2} voxel, {substeps} sub-steps"
         ));
-        assert!((volume - 1.0).abs() <= 0.03, "frame {f}: {report:?}");
+        // The density's own iso-surface swells by 3 % as the ball spreads, and shrinks
+        // 2 % as it thins: the skin holds the particles' volume.
+        assert!((volume - 1.0).abs() <= 0.003, "frame {f}: {report:?}");
         assert!(lag <= 0.5, "frame {f}: {report:?}");
         assert!(substeps <= 3, "frame {f}: {report:?}");
         assert_eq!(line["components"].as_u64(), Some(1), "frame {f}");
     }
     println!("thrown ball, per frame: {}", report.join("; "));
+    let fresh_range = fresh_volumes
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+    assert!(
+        fresh_range.1 - fresh_range.0 > 0.03,
+        "the case no longer tests the hold: {report:?}"
+    );
     common::assert_clean_meshes(dir.path());
+
+    // --free-volume leaves the volume to the attraction: toward the density's, within
+    // the 3 % the carry alone kept before the hold.
+    let free = dir.path().join("free.jsonl");
+    let out = common::activeskin(&[
+        "particles",
+        "--particles",
+        pattern.to_str().unwrap(),
+        "--radius",
+        &radius,
+        "--voxel-size",
+        &radius,
+        "--free-volume",
+        "--stats",
+        free.to_str().unwrap(),
+        "-q",
+    ]);
+    common::assert_ok(&out);
+    let free: Vec<f64> = common::stats_lines(&free)
+        .iter()
+        .map(|line| line["volume"].as_f64().unwrap() / first_volume)
+        .collect();
+    let worst = free.iter().map(|v| (v - 1.0).abs()).fold(0.0, f64::max);
+    assert!((0.005..0.03).contains(&worst), "{free:?}");
+}
+
+#[test]
+fn a_chunk_holds_the_volume_the_whole_shot_holds() {
+    let dir = common::scratch();
+    write_shot(dir.path(), 12);
+    let pattern = dir.path().join("ball_$F.ply");
+    let run = |stats: &Path, frames: &[&str]| {
+        let mut args = vec![
+            "particles",
+            "--particles",
+            pattern.to_str().unwrap(),
+            "--radius",
+            "0.01",
+            "--voxel-size",
+            "0.01",
+            "--stats",
+            stats.to_str().unwrap(),
+            "-q",
+        ];
+        args.extend_from_slice(frames);
+        common::assert_ok(&common::activeskin(&args));
+        common::stats_lines(stats)
+    };
+    let whole = run(&dir.path().join("whole.jsonl"), &[]);
+    // Warmed up from frame 5, on the spreading ball: its volume comes from frame 1.
+    let chunk = run(
+        &dir.path().join("chunk.jsonl"),
+        &["--frames", "8-12", "--warmup", "3"],
+    );
+    assert_eq!(chunk.len(), 5);
+    for line in &chunk {
+        let frame = line["frame"].as_u64().unwrap() as usize;
+        let (a, b) = (
+            line["volume"].as_f64().unwrap(),
+            whole[frame - 1]["volume"].as_f64().unwrap(),
+        );
+        assert!((a / b - 1.0).abs() < 2e-3, "frame {frame}: {a} against {b}");
+    }
 }
 
 #[test]

@@ -60,6 +60,7 @@ fn run_library(into: &Path) {
         fps: 24.0,
         timing: Timing::Mid,
         write_from: 1,
+        hold_volume: true,
     };
     let mut notes = Vec::new();
     run.run(&mut outputs, &mut |line| notes.push(line)).unwrap();

@@ -131,6 +131,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
                 flow: Some(Box::new(Orbiting { time })),
                 carried: None,
                 seed: false,
+                volume: None,
             })
         },
     )?;
@@ -170,6 +171,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
                 flow: None,
                 carried: None,
                 seed: true,
+                volume: None,
             })
         },
     )?;

@@ -55,6 +55,12 @@ pub struct ParticlesArgs {
     /// particles). Particles carry no distance to measure it on, so no `auto`.
     #[arg(long, value_enum, default_value_t = VelocityTime::Mid)]
     velocity_time: VelocityTime,
+    /// Let the skin's volume follow the density's iso-surface, which swells on thin
+    /// sheets and spray. By default the skin is held, on every frame, to the volume the
+    /// particles stand for: the skin's volume on the sequence's first frame, per particle
+    /// (per radius cubed with radii of their own).
+    #[arg(long)]
+    free_volume: bool,
     #[command(flatten)]
     physics: PhysicsArgs,
     #[command(flatten)]
@@ -113,6 +119,7 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
         fps: args.physics.fps,
         timing,
         write_from,
+        hold_volume: !args.free_volume,
     };
     run.run(&mut outputs, &mut |line| {
         if !quiet {

@@ -314,6 +314,7 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
             flow: flow.map(|f| Box::new(f) as Box<dyn Flow>),
             carried: None,
             seed: true,
+            volume: None,
         })
     };
     let first_file = input.file(range.0, args.hold_missing)?;

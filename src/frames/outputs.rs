@@ -244,6 +244,12 @@ impl Outputs {
         Ok(())
     }
 
+    /// Whether a frame's χ and components are written or printed ([`Outputs::write_frame`]
+    /// reads them from its stats).
+    pub fn reports_topology(&self) -> bool {
+        self.stats.is_some() || self.plain
+    }
+
     /// Keeps the stats of frames already written when resuming: the lines before `frame`.
     pub fn resume_stats(&mut self, frame: i64) -> Result<(), FrameError> {
         let Some((path, lines)) = &mut self.stats else {

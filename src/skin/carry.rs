@@ -251,7 +251,7 @@ impl<P: Potential> Skin<P> {
     /// 0 with this offset (0.06 voxel a frame on average, 0.25 at most there); over the
     /// nearer particles the velocity now averages (2.5 radii), the shot's volume reached
     /// 1.069 without the offset, 1.042 with it.
-    fn keep_volume(&mut self, volume: f64) {
+    pub(super) fn keep_volume(&mut self, volume: f64) {
         let (dx, w) = (self.params.dx, self.params.band_width);
         if volume <= 0.0 || self.area <= 0.0 {
             return;
