@@ -117,6 +117,73 @@ impl GridData {
         self.leaf_origins.len()
     }
 
+    /// The voxels of its leaves' box, one leaf wider on every side (inclusive); `None`
+    /// without leaves.
+    fn leaf_box(&self) -> Option<([i32; 3], [i32; 3])> {
+        let mut origins = self.leaf_origins.iter();
+        let first = *origins.next()?;
+        let (lo, hi) = origins.fold((first, first), |(lo, hi), o| {
+            (
+                std::array::from_fn(|a| lo[a].min(o[a])),
+                std::array::from_fn(|a| hi[a].max(o[a])),
+            )
+        });
+        Some((lo.map(|c| c - 8), hi.map(|c| c + 15)))
+    }
+
+    /// Its tiles, the inside ones (negative: a level set's) larger than a leaf cut to the
+    /// leaves' box one leaf wider (split into the tiles of the next level down where they
+    /// cross its faces), and whether any was cut. An inside that reaches past the leaves
+    /// comes from a band left open and then flood-filled (a liquid clipped by its domain,
+    /// a sphere by the box it was sampled in: thousands of 128³ tiles out to the tree's
+    /// edge); read so, it is closed where its leaves end, as a dense grid's walls are,
+    /// not at those tiles' far faces — no surface anyone sampled, and one of millions of
+    /// blocks (6.5 GB for a 134 KB file).
+    pub fn tiles_within_leaves(&self) -> (Vec<Tile>, bool) {
+        let Some((lo, hi)) = self.leaf_box() else {
+            return (self.tiles.clone(), false);
+        };
+        let mut kept = Vec::with_capacity(self.tiles.len());
+        let mut cut = false;
+        let mut stack: Vec<Tile> = Vec::new();
+        for &tile in &self.tiles {
+            if tile.value >= 0.0 || tile.dim <= 8 {
+                kept.push(tile);
+                continue;
+            }
+            stack.push(tile);
+            while let Some(t) = stack.pop() {
+                let d = t.dim as i32;
+                let a = t.origin;
+                let within = (0..3).all(|k| a[k] >= lo[k] && a[k] + d - 1 <= hi[k]);
+                let apart = (0..3).any(|k| a[k] > hi[k] || a[k] + d - 1 < lo[k]);
+                if within {
+                    kept.push(t);
+                    continue;
+                }
+                cut = true;
+                // The box's faces are a leaf's: a leaf-sized tile is in it or out.
+                if apart || d <= 8 {
+                    continue;
+                }
+                let child = if d > 128 { 128 } else { 8 };
+                let n = d / child;
+                for x in 0..n {
+                    for y in 0..n {
+                        for z in 0..n {
+                            stack.push(Tile {
+                                origin: [a[0] + x * child, a[1] + y * child, a[2] + z * child],
+                                dim: child as u32,
+                                ..t
+                            });
+                        }
+                    }
+                }
+            }
+        }
+        (kept, cut)
+    }
+
     pub fn leaf_values(&self, leaf: usize) -> &[f32] {
         &self.leaf_values[leaf * LEAF_VOXELS..(leaf + 1) * LEAF_VOXELS]
     }

@@ -438,3 +438,91 @@ fn frames_that_are_not_files_are_errors_not_missing_frames() {
         std::fs::remove_file(fifo).unwrap();
     }
 }
+
+/// Runs activeskin within 60 s and a 4 GB address space, as the hostile inputs of issue 31
+/// were tried.
+fn within_a_minute_and_4_gb(args: &[&str]) -> std::process::Output {
+    Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -v 4000000 && exec timeout 60 \"$@\"")
+        .arg("sh")
+        .arg(env!("CARGO_BIN_EXE_activeskin"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn an_inside_reaching_past_the_leaves_is_closed_where_they_end() {
+    let dir = common::scratch();
+    // A sphere of radius 1 (40 voxels) sampled in a box that cuts it at x = 16 voxels,
+    // then flood-filled as OpenVDB does an open band: 27 000 inside tiles of 128³ beyond.
+    let full = Grid::level_set_sphere(1.0, [0.0; 3], 0.025, 3.0)
+        .unwrap()
+        .to_data()
+        .unwrap();
+    let mut data = GridData::empty("surface", full.class, full.background, full.transform);
+    for (i, origin) in full.leaf_origins.iter().enumerate() {
+        if origin[0] < 16 {
+            data.leaf_origins.push(*origin);
+            data.leaf_masks.push(full.leaf_masks[i]);
+            data.leaf_values
+                .extend_from_slice(&full.leaf_values[i * 512..(i + 1) * 512]);
+        }
+    }
+    data.tiles
+        .extend(full.tiles.iter().filter(|t| t.origin[0] < 16).copied());
+    for i in 1..=30 {
+        for j in -15..15 {
+            for k in -15..15 {
+                data.tiles.push(activeskin::volume::Tile {
+                    origin: [i * 128, j * 128, k * 128],
+                    dim: 128,
+                    value: -full.background,
+                    active: false,
+                });
+            }
+        }
+    }
+    // And a whole root tile of 4096³ inside beyond them.
+    data.tiles.push(activeskin::volume::Tile {
+        origin: [8192, 0, 0],
+        dim: 4096,
+        value: -full.background,
+        active: false,
+    });
+    let file = dir.path().join("clipped.vdb");
+    write(&file, &data);
+    let mesh = dir.path().join("clipped.obj");
+    let out = within_a_minute_and_4_gb(&[
+        "mesh",
+        file.to_str().unwrap(),
+        mesh.to_str().unwrap(),
+        "--check",
+    ]);
+    common::assert_ok(&out);
+    let said = common::stderr(&out);
+    assert!(said.contains("closed where the voxels end"), "{said}");
+    // The sphere below the cut (x < 0.39), closed by a disc there.
+    let cut = 0.39f64;
+    let expected = std::f64::consts::PI * (cut - cut.powi(3) / 3.0 + 2.0 / 3.0);
+    let volume = common::read_mesh(&mesh).unwrap().volume();
+    assert!(
+        (volume / expected - 1.0).abs() < 0.03,
+        "{volume} against {expected}"
+    );
+    // The skin reads it alike.
+    let skin = dir.path().join("skin.####.obj");
+    let out = within_a_minute_and_4_gb(&[
+        "skin",
+        "--target",
+        file.to_str().unwrap(),
+        "--frames",
+        "1-2",
+        "--mesh",
+        skin.to_str().unwrap(),
+        "-q",
+    ]);
+    common::assert_ok(&out);
+    assert_eq!(common::assert_clean_meshes(dir.path()), 3);
+}

@@ -58,7 +58,8 @@ impl Sampler {
             .map(|(i, o)| (IVec3::from_array(*o), i as u32))
             .collect();
         let mut tiles: [HashMap<IVec3, f32>; 3] = Default::default();
-        for t in &data.tiles {
+        let (kept, _) = data.tiles_within_leaves();
+        for t in &kept {
             if let Some(level) = TILE_DIMS.iter().position(|&d| d as u32 == t.dim) {
                 tiles[level].insert(IVec3::from_array(t.origin), t.value);
             }
@@ -79,7 +80,7 @@ impl Sampler {
             lo = lo.min(IVec3::from_array(*o));
             hi = hi.max(IVec3::from_array(*o) + 8);
         }
-        for t in &data.tiles {
+        for t in &kept {
             lo = lo.min(IVec3::from_array(t.origin));
             hi = hi.max(IVec3::from_array(t.origin) + t.dim as i32);
         }
