@@ -75,11 +75,50 @@ where
         return write(path);
     }
     let tmp = temporary_path(path);
+    let _registered = Writing::register(&tmp);
     let result = write(&tmp).and_then(|()| std::fs::rename(&tmp, path).map_err(|e| e.to_string()));
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+/// The temporaries being written now (by any thread), for [`remove_temporaries`].
+static WRITING: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// A temporary listed in [`WRITING`] while it lives.
+struct Writing(PathBuf);
+
+impl Writing {
+    fn register(tmp: &Path) -> Self {
+        writing().push(tmp.to_path_buf());
+        Writing(tmp.to_path_buf())
+    }
+}
+
+impl Drop for Writing {
+    fn drop(&mut self) {
+        let mut list = writing();
+        if let Some(at) = list.iter().position(|p| *p == self.0) {
+            list.swap_remove(at);
+        }
+    }
+}
+
+/// The list, even after a writer panicked while holding it (it only adds and removes).
+fn writing() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    WRITING
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// Removes the temporaries being written now: for a process stopped by a signal
+/// (SIGTERM from a farm's scheduler, Ctrl-C), which then leaves no hidden `.tmp` behind;
+/// the outputs it had finished stay whole.
+pub fn remove_temporaries() {
+    for tmp in writing().drain(..) {
+        let _ = std::fs::remove_file(tmp);
+    }
 }
 
 /// A new file whose bytes are handed to the kernel's writeback every few megabytes as they

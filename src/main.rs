@@ -4,7 +4,29 @@ mod cli;
 
 fn main() -> ExitCode {
     end_quietly_on_a_closed_pipe();
+    clean_up_when_stopped();
     cli::run()
+}
+
+/// SIGTERM (a farm scheduler's cancel or time limit), SIGINT (Ctrl-C) and SIGHUP stop the
+/// run as they would, but first remove the output being written under its temporary
+/// name: the frames already written stay, and no hidden `.tmp` is left behind (a resume
+/// would remove it, a user looking at the folder would not know to). Handled on a thread
+/// of its own (signal-hook's self-pipe), where removing files is allowed; the children a
+/// bench starts get the default dispositions back when they exec.
+fn clean_up_when_stopped() {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGTERM, SIGINT, SIGHUP]) else {
+        return;
+    };
+    std::thread::spawn(move || {
+        if let Some(signal) = signals.forever().next() {
+            activeskin::io::remove_temporaries();
+            // Ends the process as the signal's default action does (its exit status).
+            let _ = signal_hook::low_level::emulate_default_handler(signal);
+            std::process::exit(128 + signal);
+        }
+    });
 }
 
 /// Rust starts with SIGPIPE ignored, so printing into a closed pipe (`activeskin info

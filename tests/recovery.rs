@@ -141,3 +141,46 @@ fn killed_at_random_moments_then_resumed_equals_uninterrupted() {
         );
     }
 }
+
+/// SIGTERM (a farm's cancel), SIGINT (Ctrl-C) at evenly spread moments: the run ends as
+/// the signal ends it, no hidden temporary is left, every frame on disk is whole.
+#[test]
+fn stopped_by_a_signal_leaves_no_temporary() {
+    use std::os::unix::process::ExitStatusExt;
+    // How long an uninterrupted run takes here, to spread the signals over it.
+    let whole = common::scratch();
+    let start = Instant::now();
+    run(whole.path(), false);
+    let span = start.elapsed();
+    let mut stopped = 0;
+    for k in 0..12 {
+        let dir = common::scratch();
+        let signal = if k % 3 == 2 {
+            libc::SIGINT
+        } else {
+            libc::SIGTERM
+        };
+        let mut child = Command::new(env!("CARGO_BIN_EXE_activeskin"))
+            .args(args(dir.path(), false))
+            .spawn()
+            .unwrap();
+        std::thread::sleep(span.mul_f64((k as f64 + 0.5) / 12.0));
+        // SAFETY: kill(2) on our own child's pid, not yet waited for.
+        unsafe {
+            libc::kill(child.id() as i32, signal);
+        }
+        let status = child.wait().unwrap();
+        if status.signal() == Some(signal) {
+            stopped += 1;
+        } else {
+            assert!(status.success(), "{status:?}");
+        }
+        let left: Vec<String> = names(dir.path())
+            .into_iter()
+            .filter(|n| n.ends_with(".tmp"))
+            .collect();
+        assert!(left.is_empty(), "signal {signal} at {k}/12: {left:?}");
+        assert_frames_whole(dir.path());
+    }
+    assert!(stopped >= 6, "only {stopped} of 12 runs were stopped");
+}
