@@ -526,3 +526,32 @@ fn an_inside_reaching_past_the_leaves_is_closed_where_they_end() {
     common::assert_ok(&out);
     assert_eq!(common::assert_clean_meshes(dir.path()), 3);
 }
+
+#[test]
+fn a_level_set_too_far_for_its_voxels_is_one_line() {
+    let dir = common::scratch();
+    // A millimetre sphere a kilometre out, voxels of 30 µm: 3.3·10⁷ voxels from the
+    // origin, where a 32-bit position is 2 voxels coarse (it meshed into degenerate
+    // triangles).
+    let far = Grid::level_set_sphere(0.001, [1000.0, 0.0, 0.0], 3e-5, 3.0).unwrap();
+    let file = dir.path().join("far.vdb");
+    write(&file, &far.to_data().unwrap());
+    let mesh = dir.path().join("far.obj");
+    let out = activeskin(&["mesh", file.to_str().unwrap(), mesh.to_str().unwrap()]);
+    assert_fails(&out, 1, "far.vdb", "mesh");
+    assert!(common::stderr(&out).contains("32-bit positions do not resolve"));
+    let skin = dir.path().join("s.####.obj");
+    let out = activeskin(&[
+        "skin",
+        "--target",
+        file.to_str().unwrap(),
+        "--frames",
+        "1-2",
+        "--mesh",
+        skin.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_fails(&out, 1, "far.vdb", "skin");
+    assert!(common::stderr(&out).contains("32-bit positions do not resolve"));
+    assert_eq!(names(dir.path()), vec!["far.vdb"]);
+}

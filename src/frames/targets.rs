@@ -157,13 +157,31 @@ pub fn check_usable(path: &Path, data: &GridData) -> Result<(), FrameError> {
     Ok(())
 }
 
-/// The transform half of [`check_usable`], for a caller that reads every value anyway.
+/// The transform half of [`check_usable`], for a caller that reads every value anyway:
+/// cubic voxels, and leaves near enough the origin for 32-bit positions to resolve them.
 pub fn check_transform(path: &Path, data: &GridData) -> Result<(), FrameError> {
     if !data.uniform_linear {
         return Err(FrameError::Data(format!(
             "{}: grid '{}' has a non-uniform or non-linear transform; resample it to cubic voxels",
             path.display(),
             data.name
+        )));
+    }
+    let dx = data.transform.voxel_size();
+    let farthest = data
+        .leaf_origins
+        .iter()
+        .flat_map(|o| {
+            [0.0, 8.0].map(|d| data.transform.index_to_world(o.map(|c| f64::from(c) + d)))
+        })
+        .flat_map(|p| p.map(f64::abs))
+        .fold(0.0, f64::max);
+    if farthest / dx > f64::from(crate::grid::REACH_VOXELS) {
+        return Err(FrameError::Data(format!(
+            "{}: grid '{}' lies {farthest:.4e} from the origin, {:.2e} voxels of {dx:.3e}: past 2^20 voxels, 32-bit positions do not resolve a voxel; move it nearer the origin or use larger voxels",
+            path.display(),
+            data.name,
+            farthest / dx
         )));
     }
     Ok(())
