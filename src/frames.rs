@@ -72,8 +72,8 @@ pub struct FrameInput<'t> {
     /// for simulations (an emitter, a droplet the skin missed), not for morphs.
     pub seed: bool,
     /// The volume the input holds at this frame when it conserves one (particles of an
-    /// incompressible liquid): the skin is held to it once attracted
-    /// ([`AnySkin::hold_volume`]).
+    /// incompressible liquid): the skin is held to it once attracted, as the frame settles
+    /// ([`AnySkin::settle_holding`]).
     pub volume: Option<f64>,
 }
 
@@ -139,6 +139,8 @@ pub fn run<'t>(
     let mut previous: Option<Option<Box<dyn Flow + 't>>> = None;
     for frame in start..=last {
         let started = Instant::now();
+        // The volume the frame's input holds, given back as the frame ends.
+        let mut hold = None;
         let substeps = if frame == first {
             0
         } else {
@@ -169,13 +171,11 @@ pub fn run<'t>(
             if input.seed {
                 skin.seed(&*input.target);
             }
-            if let Some(volume) = input.volume {
-                skin.hold_volume(volume);
-            }
+            hold = input.volume;
             previous = Some(input.flow);
             substeps
         };
-        let level_set = skin.settle();
+        let level_set = skin.settle_holding(hold);
         if frame < write_from {
             continue;
         }

@@ -252,15 +252,25 @@ impl<P: Potential> Skin<P> {
     /// nearer particles the velocity now averages (2.5 radii), the shot's volume reached
     /// 1.069 without the offset, 1.042 with it.
     pub(super) fn keep_volume(&mut self, volume: f64) {
+        // The shift is a fraction of a voxel and the band reaches w voxels past the skin:
+        // the tube is kept until the attraction's upkeep.
+        if self.shift_to_volume(volume) {
+            self.polygonize();
+        }
+    }
+
+    /// [`Skin::keep_volume`]'s offset applied to the values alone (the mesh, area and
+    /// volume left as they were): whether it moved anything.
+    pub(super) fn shift_to_volume(&mut self, volume: f64) -> bool {
         let (dx, w) = (self.params.dx, self.params.band_width);
         if volume <= 0.0 || self.area <= 0.0 {
-            return;
+            return false;
         }
         // Outward by δ: φ − δ, with f = φ / (wΔx).
         let delta = ((volume - self.volume) / self.area) as f32;
         let shift = delta / (w * dx);
         if shift.abs() < 1e-6 {
-            return;
+            return false;
         }
         self.grid.blocks_mut().par_iter_mut().for_each(|block| {
             for v in block.values.iter_mut() {
@@ -270,8 +280,6 @@ impl<P: Potential> Skin<P> {
                 }
             }
         });
-        // The shift is a fraction of a voxel and the band reaches w voxels past the skin:
-        // the tube is kept until the attraction's upkeep.
-        self.polygonize();
+        true
     }
 }

@@ -84,6 +84,15 @@ impl<P: Potential> Skin<P> {
     /// ([`Skin::to_level_set`], then [`Skin::restore`]), which is returned for writing.
     /// Every frame ends so, written or not, so the skin never depends on its outputs.
     pub fn settle(&mut self) -> GridData {
+        self.settle_holding(None)
+    }
+
+    /// [`Skin::settle`], the skin first held to `volume` ([`Skin::hold_volume`]), meshed
+    /// once, by the restore.
+    pub fn settle_holding(&mut self, volume: Option<f64>) -> GridData {
+        if let Some(volume) = volume {
+            self.shift_to_volume(volume);
+        }
         let level_set = self.to_level_set();
         self.restore(&level_set)
             .expect("a skin's own level set has its voxel size and origin");
