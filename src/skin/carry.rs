@@ -11,7 +11,7 @@ use super::{band, Skin};
 use crate::flow::FlowMap;
 use crate::grid::tube::Reach;
 use crate::grid::{block_of, node_offset, Potential, SparseGrid, AROUND, BLOCK_DIM, BLOCK_NODES};
-use crate::stencil::limited_tricubic;
+use crate::stencil::{floor_ivec3, limited_tricubic};
 
 /// A box of the old grid's nodes, copied once for the nodes of a new block whose
 /// departure points all lie in it: their 4³ stencils then read without hashing.
@@ -99,7 +99,7 @@ fn carry_blocks<P: Potential>(
             departures(base, from);
             let (mut lo, mut hi) = (IVec3::MAX, IVec3::MIN);
             for u in from.iter().flatten() {
-                let b = u.floor().as_ivec3();
+                let b = floor_ivec3(*u);
                 lo = lo.min(b - IVec3::ONE);
                 hi = hi.max(b + IVec3::splat(2));
             }

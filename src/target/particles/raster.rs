@@ -12,6 +12,7 @@ use rayon::prelude::*;
 use super::Density;
 use crate::flow::{Flow, FlowMap};
 use crate::grid::{offset_coords, AROUND, BLOCK_NODES};
+use crate::stencil::floor_ivec3;
 use crate::target::{Aabb, Target};
 use crate::volume::{GridClass, GridData, Transform, MASK_WORDS};
 
@@ -300,9 +301,8 @@ impl DensityGrid {
         at: impl Fn(&Block, usize) -> [f32; N],
     ) -> [f32; N] {
         let u = p / self.dx;
-        let base = u.floor();
-        let t = u - base;
-        let base = base.as_ivec3();
+        let base = floor_ivec3(u);
+        let t = u - base.as_vec3();
         let mut sum = [0.0f32; N];
         let mut add = |value: [f32; N], w: f32| {
             for (s, v) in sum.iter_mut().zip(value) {
@@ -469,7 +469,7 @@ impl Target for DensityGrid {
     /// start skin then skips those blocks outright.
     fn distance(&self, p: Vec3) -> f32 {
         let u = p / self.dx;
-        let c = u.floor().as_ivec3() >> 3;
+        let c = floor_ivec3(u) >> 3;
         match self.block(c) {
             Some(block) if block.deep => return -depth_in_neighbourhood(c, u) * self.dx,
             None if AROUND.iter().all(|&d| self.block(c + d).is_none()) => {
