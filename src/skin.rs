@@ -125,10 +125,12 @@ impl std::fmt::Display for Stopped {
     }
 }
 
-/// Most sub-steps a frame of the frame loop may take (real runs take 1–40): beyond, it
-/// stops and says which bound forced them — a velocity or α out of all proportion, a
-/// frame rate of almost nothing — instead of running until killed.
-pub const MAX_SUBSTEPS: u32 = 10_000;
+/// Most sub-steps a frame of the frame loop may take (real runs take 1–40, 75 with a
+/// Mantaflow `phi` in voxels read as world units): beyond, it stops and says which bound
+/// forced them — a velocity or α out of all proportion, a frame rate of almost nothing,
+/// particles of 10 µm moving a metre a second — instead of running until killed (a
+/// thousand sub-steps of a band of 600 k nodes are two minutes; 10 000 were allowed).
+pub const MAX_SUBSTEPS: u32 = 1_000;
 
 /// A skin stored with potential type `P`.
 pub struct Skin<P> {

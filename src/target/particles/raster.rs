@@ -320,9 +320,10 @@ impl DensityGrid {
                 add(at(block, offset(local + c)), weight(t, c));
             }
         } else {
-            // Corners in two (or four, eight) blocks: each block looked up once.
+            // Corners in two (or four, eight) blocks: each block looked up once. (From the
+            // local coordinates: `base + 1` overflows at the saturated ends of i32.)
             let first = base >> 3;
-            let apart: IVec3 = ((base + IVec3::ONE) >> 3) - first;
+            let apart = IVec3::select(local.cmpeq(IVec3::splat(DIM - 1)), IVec3::ONE, IVec3::ZERO);
             let mut blocks: [Option<Option<&Block>>; 8] = [None; 8];
             for corner in 0..8 {
                 let c = IVec3::new(corner >> 2, (corner >> 1) & 1, corner & 1);
@@ -330,7 +331,7 @@ impl DensityGrid {
                 let slot = (b.x << 2 | b.y << 1 | b.z) as usize;
                 let block = *blocks[slot].get_or_insert_with(|| self.block(first + b));
                 if let Some(block) = block {
-                    add(at(block, offset((base + c) & (DIM - 1))), weight(t, c));
+                    add(at(block, offset((local + c) & (DIM - 1))), weight(t, c));
                 }
             }
         }
