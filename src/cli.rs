@@ -33,6 +33,11 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// The most memory a run may take, in GB [default: three quarters of the machine's
+    /// memory, or of `ulimit -v` when smaller]: a frame that would need more stops with
+    /// one line, before allocating, naming what asks for it.
+    #[arg(long, global = true, value_name = "GB")]
+    max_memory: Option<f64>,
 }
 
 #[derive(Subcommand)]
@@ -132,6 +137,13 @@ pub fn run() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    if let Some(gb) = cli.max_memory {
+        if !(gb.is_finite() && gb > 0.0) {
+            eprintln!("activeskin: error: --max-memory must be a positive number of GB, got {gb}");
+            return ExitCode::from(2);
+        }
+        activeskin::budget::set_bytes((gb * 1e9) as u64);
+    }
     let result = match cli.command {
         Command::Info { files } => info::run(&files),
         Command::Skin(args) => skin::run(&args),

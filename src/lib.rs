@@ -35,6 +35,7 @@
 //! assert_eq!(skin.mesh().euler_characteristic(), 0); // a torus
 //! ```
 
+pub mod budget;
 pub mod flow;
 pub mod frames;
 pub mod grid;

@@ -218,12 +218,52 @@ fn run_bounded(args: &[String]) -> (std::process::Output, Duration) {
 
 #[test]
 fn hostile_inputs_end_in_a_clear_line_within_bounds() {
-    let seed: u64 = std::env::var("HOSTILE_SEED")
+    let seeds: Vec<u64> = match std::env::var("HOSTILE_SEED")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or(1);
-    let mut rng = Lcg(seed);
+    {
+        Some(seed) => vec![seed],
+        // Seed 4 holds a cloud whose density would take 10 GB (radius 10 µm, voxel 1 µm).
+        None => vec![1, 4],
+    };
     let mut failures = Vec::new();
+    for seed in seeds {
+        run_seed(seed, &mut failures);
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn the_memory_budget_is_an_option() {
+    let dir = common::scratch();
+    let path = dir.path().join("p.0001.ply");
+    write_ply(&path, &ball([0.0; 3]));
+    let run = |budget: &str| {
+        common::activeskin(&[
+            "particles",
+            "--particles",
+            dir.path().join("p.####.ply").to_str().unwrap(),
+            "--radius",
+            "0.02",
+            "--frames",
+            "1-1",
+            "--mesh",
+            dir.path().join("m.####.obj").to_str().unwrap(),
+            "--max-memory",
+            budget,
+            "-q",
+        ])
+    };
+    common::assert_fails(&run("0"), 2, "--max-memory", "zero");
+    common::assert_fails(&run("nan"), 2, "--max-memory", "nan");
+    let out = run("0.0001");
+    common::assert_fails(&out, 1, "p.0001.ply", "100 kB");
+    assert!(common::stderr(&out).contains("memory budget of 0.0 GB"));
+    common::assert_ok(&run("2"));
+}
+
+fn run_seed(seed: u64, failures: &mut Vec<String>) {
+    let mut rng = Lcg(seed);
     for k in 0..24 {
         let dir = common::scratch();
         let case = if k % 2 == 0 {
@@ -260,11 +300,10 @@ fn hostile_inputs_end_in_a_clear_line_within_bounds() {
         );
         if !fine {
             failures.push(format!(
-                "case {k} ({}): exit {code:?}, {lines} lines, inputs whole {whole}: {}",
+                "seed {seed} case {k} ({}): exit {code:?}, {lines} lines, inputs whole {whole}: {}",
                 case.what,
                 err.chars().take(400).collect::<String>()
             ));
         }
     }
-    assert!(failures.is_empty(), "seed {seed}:\n{}", failures.join("\n"));
 }

@@ -226,7 +226,17 @@ impl ParticleInput {
             }
             _ => density.normalized(l),
         };
-        let grid = DensityGrid::rasterize(&density, self.dx);
+        let budget = crate::budget::bytes();
+        let grid = DensityGrid::rasterize_within(&density, self.dx, budget).map_err(|needed| {
+            FrameError::Data(format!(
+                "{}: the particles' density would take {} at voxels of {} (kernels of {} across), over the memory budget of {}: give a larger --voxel-size (or --max-memory)",
+                path.display(),
+                crate::budget::gb(needed),
+                self.dx,
+                2.0 * support * self.radius,
+                crate::budget::gb(budget)
+            ))
+        })?;
         // The fog volume (OpenVDB only: check() refuses --density-out without it).
         #[cfg(not(feature = "vdb"))]
         let _ = frame;

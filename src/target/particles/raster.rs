@@ -59,6 +59,13 @@ const EMPTY: [f32; 4] = [0.0; 4];
 impl DensityGrid {
     /// Sums `density`'s kernels at every node within a support of a particle.
     pub fn rasterize(density: &Density, dx: f32) -> Self {
+        Self::rasterize_within(density, dx, u64::MAX).expect("an unbounded budget holds any grid")
+    }
+
+    /// [`DensityGrid::rasterize`], refused before allocating more than `budget` bytes:
+    /// `Err` holds the bytes it would take (a cloud whose kernels span many blocks each,
+    /// tiny voxels or huge radii, with few neighbours to share them).
+    pub fn rasterize_within(density: &Density, dx: f32, budget: u64) -> Result<Self, u64> {
         assert!(dx > 0.0, "voxel size must be positive");
         let side = DIM as f32 * dx;
         let key = |p: Vec3| (p / side).floor().as_ivec3();
@@ -86,7 +93,26 @@ impl DensityGrid {
             .collect();
         let reach = (density.h / side).ceil() as i32;
 
-        // The blocks some particle's support box reaches.
+        // The blocks some particle's support box reaches, listed once per run of a cell
+        // first: that list's size is known before it is made.
+        let listed: u64 = list
+            .par_iter()
+            .map(|&(start, end)| {
+                let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+                for &(_, i) in &order[start..end] {
+                    let (p, inv_h2) = density.particles[i as usize];
+                    let h = inv_h2.sqrt().recip();
+                    lo = lo.min(p - Vec3::splat(h));
+                    hi = hi.max(p + Vec3::splat(h));
+                }
+                let n = (key(hi) - key(lo) + IVec3::ONE).as_u64vec3();
+                n.x * n.y * n.z
+            })
+            .sum();
+        let entry = std::mem::size_of::<IVec3>() as u64;
+        if listed.saturating_mul(entry) > budget {
+            return Err(listed.saturating_mul(entry));
+        }
         let mut touched: Vec<IVec3> = list
             .par_iter()
             .flat_map_iter(|&(start, end)| {
@@ -105,6 +131,12 @@ impl DensityGrid {
             .collect();
         touched.par_sort_unstable_by_key(|c| c.to_array());
         touched.dedup();
+        let channels = if density.has_velocities() { 8 } else { 4 };
+        let per_block = (channels * NODES * std::mem::size_of::<f32>()) as u64 + 64;
+        let needed = touched.len() as u64 * per_block;
+        if needed > budget {
+            return Err(needed);
+        }
 
         let velocities = density.has_velocities();
         let blocks: Vec<Block> = touched
@@ -152,7 +184,7 @@ impl DensityGrid {
             bounds: density.bounds,
         };
         grid.mark_deep();
-        grid
+        Ok(grid)
     }
 
     /// The density's surface value.
