@@ -600,13 +600,6 @@ impl<P: Potential> Skin<P> {
         (self.area, self.volume) = self.mesh.area_and_volume();
     }
 
-    /// Holds the skin to `volume` (world units³) by the uniform normal offset that gives
-    /// it back (§5.2's constraint met at once): for inputs that conserve their volume,
-    /// such as an incompressible liquid's particles, whose density's iso-surface does not.
-    pub fn hold_volume(&mut self, volume: f64) {
-        self.keep_volume(volume);
-    }
-
     /// Sets the clock (seconds), e.g. after [`Skin::restore`].
     pub fn set_time(&mut self, time: f64) {
         self.time = time;

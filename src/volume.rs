@@ -131,23 +131,28 @@ impl GridData {
         Some((lo.map(|c| c - 8), hi.map(|c| c + 15)))
     }
 
-    /// Its tiles, the inside ones (negative: a level set's) larger than a leaf cut to the
-    /// leaves' box one leaf wider (split into the tiles of the next level down where they
-    /// cross its faces), and whether any was cut. An inside that reaches past the leaves
-    /// comes from a band left open and then flood-filled (a liquid clipped by its domain,
-    /// a sphere by the box it was sampled in: thousands of 128³ tiles out to the tree's
-    /// edge); read so, it is closed where its leaves end, as a dense grid's walls are,
-    /// not at those tiles' far faces — no surface anyone sampled, and one of millions of
-    /// blocks (6.5 GB for a 134 KB file).
-    pub fn tiles_within_leaves(&self) -> (Vec<Tile>, bool) {
-        let Some((lo, hi)) = self.leaf_box() else {
-            return (self.tiles.clone(), false);
+    /// Its tiles with the inside ones (negative: a level set's) larger than a leaf cut to
+    /// the leaves' box one leaf wider (split into the tiles of the next level down where
+    /// they cross its faces); `None` when none reaches past it, the tiles as they are. An
+    /// inside that reaches past the leaves comes from a band left open and then
+    /// flood-filled (a liquid clipped by its domain, a sphere by the box it was sampled
+    /// in: thousands of 128³ tiles out to the tree's edge); read so, it is closed where its
+    /// leaves end, as a dense grid's walls are, not at those tiles' far faces — no surface
+    /// anyone sampled, and one of millions of blocks (6.5 GB for a 134 KB file).
+    pub fn tiles_within_leaves(&self) -> Option<Vec<Tile>> {
+        let (lo, hi) = self.leaf_box()?;
+        let within = |t: &Tile| {
+            let (a, d) = (t.origin, t.dim as i32);
+            (0..3).all(|k| a[k] >= lo[k] && a[k] + d - 1 <= hi[k])
         };
+        let to_cut = |t: &Tile| t.value < 0.0 && t.dim > 8 && !within(t);
+        if !self.tiles.iter().any(to_cut) {
+            return None;
+        }
         let mut kept = Vec::with_capacity(self.tiles.len());
-        let mut cut = false;
         let mut stack: Vec<Tile> = Vec::new();
         for &tile in &self.tiles {
-            if tile.value >= 0.0 || tile.dim <= 8 {
+            if !to_cut(&tile) {
                 kept.push(tile);
                 continue;
             }
@@ -155,14 +160,12 @@ impl GridData {
             while let Some(t) = stack.pop() {
                 let d = t.dim as i32;
                 let a = t.origin;
-                let within = (0..3).all(|k| a[k] >= lo[k] && a[k] + d - 1 <= hi[k]);
-                let apart = (0..3).any(|k| a[k] > hi[k] || a[k] + d - 1 < lo[k]);
-                if within {
+                if within(&t) {
                     kept.push(t);
                     continue;
                 }
-                cut = true;
                 // The box's faces are a leaf's: a leaf-sized tile is in it or out.
+                let apart = (0..3).any(|k| a[k] > hi[k] || a[k] + d - 1 < lo[k]);
                 if apart || d <= 8 {
                     continue;
                 }
@@ -181,7 +184,7 @@ impl GridData {
                 }
             }
         }
-        (kept, cut)
+        Some(kept)
     }
 
     pub fn leaf_values(&self, leaf: usize) -> &[f32] {

@@ -439,19 +439,6 @@ fn frames_that_are_not_files_are_errors_not_missing_frames() {
     }
 }
 
-/// Runs activeskin within 60 s and a 4 GB address space, as the hostile inputs of issue 31
-/// were tried.
-fn within_a_minute_and_4_gb(args: &[&str]) -> std::process::Output {
-    Command::new("sh")
-        .arg("-c")
-        .arg("ulimit -v 4000000 && exec timeout 60 \"$@\"")
-        .arg("sh")
-        .arg(env!("CARGO_BIN_EXE_activeskin"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
 #[test]
 fn an_inside_reaching_past_the_leaves_is_closed_where_they_end() {
     let dir = common::scratch();
@@ -494,7 +481,7 @@ fn an_inside_reaching_past_the_leaves_is_closed_where_they_end() {
     let file = dir.path().join("clipped.vdb");
     write(&file, &data);
     let mesh = dir.path().join("clipped.obj");
-    let out = within_a_minute_and_4_gb(&[
+    let out = common::activeskin_bounded(&[
         "mesh",
         file.to_str().unwrap(),
         mesh.to_str().unwrap(),
@@ -513,7 +500,7 @@ fn an_inside_reaching_past_the_leaves_is_closed_where_they_end() {
     );
     // The skin reads it alike.
     let skin = dir.path().join("skin.####.obj");
-    let out = within_a_minute_and_4_gb(&[
+    let out = common::activeskin_bounded(&[
         "skin",
         "--target",
         file.to_str().unwrap(),

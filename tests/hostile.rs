@@ -9,8 +9,7 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use activeskin::vdb::Grid;
 use activeskin::volume::Tile;
@@ -202,20 +201,6 @@ fn level_set_case(rng: &mut Lcg, dir: &Path) -> Case {
     }
 }
 
-/// Runs activeskin within 60 s and a 4 GB address space.
-fn run_bounded(args: &[String]) -> (std::process::Output, Duration) {
-    let start = Instant::now();
-    let out = Command::new("sh")
-        .arg("-c")
-        .arg("ulimit -v 4000000 && exec timeout 60 \"$@\"")
-        .arg("sh")
-        .arg(env!("CARGO_BIN_EXE_activeskin"))
-        .args(args)
-        .output()
-        .unwrap();
-    (out, start.elapsed())
-}
-
 #[test]
 fn hostile_inputs_end_in_a_clear_line_within_bounds() {
     let seeds: Vec<u64> = match std::env::var("HOSTILE_SEED")
@@ -276,7 +261,9 @@ fn run_seed(seed: u64, failures: &mut Vec<String>) {
             .iter()
             .map(|p| std::fs::read(p).unwrap())
             .collect();
-        let (out, took) = run_bounded(&case.args);
+        let start = Instant::now();
+        let out = common::activeskin_bounded(&case.args);
+        let took = start.elapsed();
         let err = common::stderr(&out);
         let code = out.status.code();
         let lines = err.trim_end().lines().count();

@@ -124,7 +124,7 @@ fn to_world_units(data: &mut GridData, units: TargetUnits) -> Option<String> {
 /// touching the domain's walls is closed there; says so.
 pub fn background_outside(data: &mut GridData) -> Option<String> {
     if data.background > 0.0 {
-        return data.tiles_within_leaves().1.then(|| {
+        return data.tiles_within_leaves().is_some().then(|| {
             format!(
                 "grid '{}': inside tiles reach past its active voxels (a band left open, then flood-filled); closed where the voxels end",
                 data.name

@@ -56,8 +56,8 @@ impl<P: Potential> SparseGrid<P> {
             larger: Vec::new(),
             background_inside: value(data.background) < 0.0,
         };
-        let (tiles, _) = data.tiles_within_leaves();
-        for tile in &tiles {
+        let cut = data.tiles_within_leaves();
+        for tile in cut.as_deref().unwrap_or(&data.tiles) {
             let inside = value(tile.value) < 0.0;
             let coord = IVec3::from_array(tile.origin) >> IVec3::splat(3);
             let blocks = (tile.dim as i32 / BLOCK_DIM).max(1);

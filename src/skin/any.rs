@@ -43,9 +43,6 @@ impl AnySkin {
     pub fn carry(&mut self, map: &dyn FlowMap, duration: f32) {
         each!(self, s => s.carry(map, duration))
     }
-    pub fn hold_volume(&mut self, volume: f64) {
-        each!(self, s => s.hold_volume(volume))
-    }
     pub fn stats(&self) -> StepStats {
         each!(self, s => s.stats())
     }

@@ -87,8 +87,10 @@ impl<P: Potential> Skin<P> {
         self.settle_holding(None)
     }
 
-    /// [`Skin::settle`], the skin first held to `volume` ([`Skin::hold_volume`]), meshed
-    /// once, by the restore.
+    /// [`Skin::settle`], the skin first held to `volume` (world units³) by the uniform
+    /// normal offset that gives it back (§5.2's constraint met at once), meshed once, by
+    /// the restore: for inputs that conserve their volume, such as an incompressible
+    /// liquid's particles, whose density's iso-surface does not.
     pub fn settle_holding(&mut self, volume: Option<f64>) -> GridData {
         if let Some(volume) = volume {
             self.shift_to_volume(volume);

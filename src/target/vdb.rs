@@ -58,8 +58,9 @@ impl Sampler {
             .map(|(i, o)| (IVec3::from_array(*o), i as u32))
             .collect();
         let mut tiles: [HashMap<IVec3, f32>; 3] = Default::default();
-        let (kept, _) = data.tiles_within_leaves();
-        for t in &kept {
+        let cut = data.tiles_within_leaves();
+        let kept = cut.as_deref().unwrap_or(&data.tiles);
+        for t in kept {
             if let Some(level) = TILE_DIMS.iter().position(|&d| d as u32 == t.dim) {
                 tiles[level].insert(IVec3::from_array(t.origin), t.value);
             }
@@ -80,7 +81,7 @@ impl Sampler {
             lo = lo.min(IVec3::from_array(*o));
             hi = hi.max(IVec3::from_array(*o) + 8);
         }
-        for t in &kept {
+        for t in kept {
             lo = lo.min(IVec3::from_array(t.origin));
             hi = hi.max(IVec3::from_array(t.origin) + t.dim as i32);
         }

@@ -36,6 +36,19 @@ pub fn activeskin(args: &[&str]) -> Output {
         .expect("run activeskin")
 }
 
+/// [`activeskin`] within 60 s and a 4 GB address space, as the hostile inputs of issue 31
+/// were tried.
+pub fn activeskin_bounded<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
+    Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -v 4000000 && exec timeout 60 \"$@\"")
+        .arg("sh")
+        .arg(env!("CARGO_BIN_EXE_activeskin"))
+        .args(args)
+        .output()
+        .expect("run activeskin")
+}
+
 pub fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }

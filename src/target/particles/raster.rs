@@ -95,7 +95,7 @@ impl DensityGrid {
 
         // The blocks some particle's support box reaches, listed once per run of a cell
         // first: that list's size is known before it is made.
-        let listed: u64 = list
+        let boxes: Vec<(IVec3, IVec3)> = list
             .par_iter()
             .map(|&(start, end)| {
                 let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
@@ -105,7 +105,13 @@ impl DensityGrid {
                     lo = lo.min(p - Vec3::splat(h));
                     hi = hi.max(p + Vec3::splat(h));
                 }
-                let n = (key(hi) - key(lo) + IVec3::ONE).as_u64vec3();
+                (key(lo), key(hi))
+            })
+            .collect();
+        let listed: u64 = boxes
+            .iter()
+            .map(|&(lo, hi)| {
+                let n = (hi - lo + IVec3::ONE).as_u64vec3();
                 n.x * n.y * n.z
             })
             .sum();
@@ -113,17 +119,9 @@ impl DensityGrid {
         if listed.saturating_mul(entry) > budget {
             return Err(listed.saturating_mul(entry));
         }
-        let mut touched: Vec<IVec3> = list
+        let mut touched: Vec<IVec3> = boxes
             .par_iter()
-            .flat_map_iter(|&(start, end)| {
-                let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-                for &(_, i) in &order[start..end] {
-                    let (p, inv_h2) = density.particles[i as usize];
-                    let h = inv_h2.sqrt().recip();
-                    lo = lo.min(p - Vec3::splat(h));
-                    hi = hi.max(p + Vec3::splat(h));
-                }
-                let (lo, hi) = (key(lo), key(hi));
+            .flat_map_iter(|&(lo, hi)| {
                 (lo.x..=hi.x).flat_map(move |x| {
                     (lo.y..=hi.y).flat_map(move |y| (lo.z..=hi.z).map(move |z| IVec3::new(x, y, z)))
                 })
