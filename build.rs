@@ -39,7 +39,7 @@ fn main() {
 
 #[cfg(feature = "vdb")]
 fn build_bridge() {
-    println!("cargo::rerun-if-changed=src/vdb/ffi.rs");
+    println!("cargo::rerun-if-changed=src/io/vdb/ffi.rs");
     println!("cargo::rerun-if-changed=cpp");
     println!("cargo::rerun-if-env-changed=OPENVDB_INCLUDE_DIR");
     println!("cargo::rerun-if-env-changed=OPENVDB_LIB_DIR");
@@ -65,7 +65,7 @@ fn build_bridge() {
         return;
     }
 
-    let mut build = cxx_build::bridge("src/vdb/ffi.rs");
+    let mut build = cxx_build::bridge("src/io/vdb/ffi.rs");
     build
         .files(BRIDGE_SOURCES)
         .include("cpp")

@@ -1,4 +1,4 @@
-// File I/O and grid transfer for activeskin's OpenVDB bridge (see src/vdb/ffi.rs).
+// File I/O and grid transfer for activeskin's OpenVDB bridge (see src/io/vdb/ffi.rs).
 #include "activeskin/cpp/vdb_impl.h"
 
 #include <openvdb/io/File.h>
@@ -11,7 +11,7 @@
 #include <mutex>
 #include <sstream>
 
-#include "activeskin/src/vdb/ffi.rs.h"
+#include "activeskin/src/io/vdb/ffi.rs.h"
 
 namespace activeskin {
 namespace bridge {

@@ -1,5 +1,5 @@
 // Thin C++ side of activeskin's OpenVDB bridge. No OpenVDB type appears here: grids are
-// pimpl handles, data crosses as flat arrays. Declarations match src/vdb/ffi.rs.
+// pimpl handles, data crosses as flat arrays. Declarations match src/io/vdb/ffi.rs.
 #pragma once
 
 #include <array>

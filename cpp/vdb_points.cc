@@ -8,7 +8,7 @@
 #include <openvdb/points/PointCount.h>
 #include <openvdb/points/PointDataGrid.h>
 
-#include "activeskin/src/vdb/ffi.rs.h"
+#include "activeskin/src/io/vdb/ffi.rs.h"
 
 namespace activeskin {
 namespace bridge {

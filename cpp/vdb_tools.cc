@@ -12,7 +12,7 @@
 #include <openvdb/tools/MeshToVolume.h>
 #include <openvdb/tools/VolumeToMesh.h>
 
-#include "activeskin/src/vdb/ffi.rs.h"
+#include "activeskin/src/io/vdb/ffi.rs.h"
 
 namespace activeskin {
 namespace bridge {

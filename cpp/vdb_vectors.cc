@@ -5,7 +5,7 @@
 
 #include <openvdb/io/File.h>
 
-#include "activeskin/src/vdb/ffi.rs.h"
+#include "activeskin/src/io/vdb/ffi.rs.h"
 
 namespace activeskin {
 namespace bridge {

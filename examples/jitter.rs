@@ -10,7 +10,6 @@
 use std::path::Path;
 
 use activeskin::frames::{read_target_in, TargetUnits};
-use activeskin::mesh::Mesh;
 use activeskin::sequence::FramePattern;
 
 fn main() {
@@ -34,7 +33,7 @@ fn main() {
     };
     let (mut sum, mut n) = (0.0, 0);
     for f in first + 1..last {
-        let mesh = Mesh::read_obj(&meshes.path(f)).expect("an OBJ");
+        let mesh = activeskin::io::obj::read(&meshes.path(f)).expect("an OBJ");
         let (before, after) = (read(f - 1), read(f + 1));
         let dx = before.dx;
         let j: f64 = mesh

@@ -12,7 +12,8 @@
 
 use std::path::PathBuf;
 
-use activeskin::particles::{self, splash::Splash};
+use activeskin::io::ply;
+use activeskin::particles::splash::Splash;
 use activeskin::target::{sample, Sphere, Target, Union};
 use activeskin::vdb::{self, FileMetadata, Grid, WriteOptions};
 use glam::Vec3;
@@ -72,7 +73,7 @@ fn main() -> Result<(), activeskin::Error> {
     std::fs::create_dir_all(out.join("splash")).expect("create data/splash");
     let mut splash = Splash::new();
     for frame in 1..=SPLASH_FRAMES {
-        particles::write_ply(
+        ply::write_ply(
             &out.join(format!("splash/drop.{frame:04}.ply")),
             splash.positions(),
         )?;

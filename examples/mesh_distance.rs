@@ -3,7 +3,7 @@
 //! (flicker). `cargo run --release --example mesh_distance -- A.####.obj B.####.obj
 //! FIRST LAST DX`.
 
-use activeskin::mesh::{mean_distance, Mesh};
+use activeskin::mesh::mean_distance;
 use activeskin::sequence::FramePattern;
 
 fn main() {
@@ -16,7 +16,7 @@ fn main() {
     let b = FramePattern::parse(&args[2]).expect("a frame pattern");
     let (first, last): (i64, i64) = (args[3].parse().unwrap(), args[4].parse().unwrap());
     let dx: f32 = args[5].parse().unwrap();
-    let read = |p: &FramePattern, f: i64| Mesh::read_obj(&p.path(f)).expect("an OBJ");
+    let read = |p: &FramePattern, f: i64| activeskin::io::obj::read(&p.path(f)).expect("an OBJ");
     // Nearest triangles searched within 16 voxels: a droplet one side lacks counts.
     let cell = 8.0 * dx;
     let (mut error, mut flicker_a, mut flicker_b) = (0.0, 0.0, 0.0);

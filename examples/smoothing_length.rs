@@ -7,8 +7,8 @@
 
 use std::time::Instant;
 
+use activeskin::measure::flicker::jittered;
 use activeskin::mesh::{mean_distance, Mesh};
-use activeskin::particles::flicker::jittered;
 use activeskin::skin::{Skin, SkinParams, SpeedParams};
 use activeskin::target::{fluid_iso, Density, DensityGrid};
 use glam::{IVec3, Vec3};

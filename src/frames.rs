@@ -11,12 +11,13 @@
 mod inputs;
 mod outputs;
 mod particle_run;
+pub mod scale;
 #[cfg(feature = "vdb")]
 mod targets;
 
 use std::time::Instant;
 
-pub use inputs::{InputFrames, ParticleFrame, ParticleInput};
+pub use inputs::{auto_warmup, InputFrames, ParticleFrame, ParticleInput, WARMUP_AUTO_FACTOR};
 pub use outputs::{OutputSpec, Outputs, Progress};
 pub use particle_run::ParticleRun;
 #[cfg(feature = "vdb")]
@@ -26,9 +27,9 @@ pub use targets::{
 };
 
 use crate::flow::{Flow, FlowMap, Timing};
-use crate::mesh::MeshError;
-use crate::particles::ParticleError;
-use crate::render::RenderError;
+use crate::io::image::RenderError;
+use crate::io::mesh::MeshError;
+use crate::io::particles::ParticleError;
 use crate::sequence::PatternError;
 use crate::skin::{AnySkin, SkinError};
 use crate::target::Target;

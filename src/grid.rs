@@ -8,8 +8,11 @@
 
 mod halo;
 mod import;
+mod space;
 pub(crate) use import::TileSides;
 pub mod tube;
+
+pub use space::{Aabb, IndexToWorld};
 
 use glam::IVec3;
 use hashbrown::{HashMap, HashSet};

@@ -1,6 +1,17 @@
 //! File formats (one module each) and the output helpers every writer shares.
 
 pub mod bgeo;
+pub mod exr;
+pub mod image;
+pub mod json;
+pub mod mesh;
+pub mod obj;
+pub mod particles;
+pub mod ply;
+pub mod png;
+pub mod text;
+#[cfg(feature = "vdb")]
+pub mod vdb;
 pub mod vtk;
 pub mod vtu;
 

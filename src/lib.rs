@@ -4,16 +4,21 @@
 //! block-sparse grid whose zero isosurface is attracted to a target (VDB level set or fog
 //! volume, particles, analytic shape) while behaving like a membrane with surface tension.
 //!
-//! Layers, arrows pointing down only:
+//! Layers, arrows pointing down only (checked by `tests/layers.rs`):
 //!
 //! - **core**, pure Rust, built and tested without OpenVDB (`--no-default-features`):
 //!   [`grid`] (§4.1–4.2), `stencil` (§4.4), [`skin`] (§4.3, §4.5, §4.7–4.8, §5),
-//!   [`polygonize`] (§3.2, §4.6), [`mesh`], [`flow`] (§7), [`target`] (§3.4, and the particle density of
-//!   §6.1), [`volume`] (a VDB grid's plain data), [`particles`], [`render`];
-//! - **I/O**, with the default feature `vdb`: [`vdb`] (OpenVDB through the C++ bridge),
-//!   [`sequence`] (frame patterns), [`io`] (atomic writes), [`validate`];
-//! - **the frame loop**, [`frames`]: inputs, advance, canonical state, outputs, resume;
-//! - the command line on top (the `activeskin` binary).
+//!   [`polygonize`] (§3.2, §4.6), [`mesh`], [`flow`] (§7), [`target`] (§3.4, and the
+//!   particle density of §6.1), [`volume`] (a VDB grid's plain data), [`particles`],
+//!   [`render`], [`budget`];
+//! - **files**: [`io`], one module per format (particles in PLY, VTK, VTU, BGEO, JSON,
+//!   text; meshes in OBJ and PLY; images in EXR and PNG; OpenVDB through the C++ bridge,
+//!   [`io::vdb`], with the default feature `vdb`), atomic writes; [`sequence`] (frame
+//!   patterns);
+//! - **the frame loop**, [`frames`]: inputs, advance, canonical state, outputs, resume,
+//!   and the policy every front end shares (warm-up, velocity scale); [`measure`] and
+//!   [`validate`] (feature `vdb`), the measurements of benchmarks and checks;
+//! - the command line on top (the `activeskin` binary, feature `cli`).
 //!
 //! A skin morphing a sphere into a torus, its mesh a clean surface:
 //!
@@ -40,6 +45,7 @@ pub mod flow;
 pub mod frames;
 pub mod grid;
 pub mod io;
+pub mod measure;
 pub mod mesh;
 pub mod particles;
 pub mod polygonize;
@@ -51,7 +57,7 @@ pub mod target;
 #[cfg(feature = "vdb")]
 pub mod validate;
 #[cfg(feature = "vdb")]
-pub mod vdb;
+pub use io::vdb;
 pub mod volume;
 
 /// Every error of the library, one variant per stage.
@@ -61,15 +67,15 @@ pub enum Error {
     #[error(transparent)]
     Vdb(#[from] vdb::VdbError),
     #[error(transparent)]
-    Mesh(#[from] mesh::MeshError),
+    Mesh(#[from] io::mesh::MeshError),
     #[error(transparent)]
     Skin(#[from] skin::SkinError),
     #[error(transparent)]
     Pattern(#[from] sequence::PatternError),
     #[error(transparent)]
-    Render(#[from] render::RenderError),
+    Render(#[from] io::image::RenderError),
     #[error(transparent)]
-    Particles(#[from] particles::ParticleError),
+    Particles(#[from] io::particles::ParticleError),
 }
 
 /// A repeatable pseudo-random source for tests: `below(n)` in 0..n (a 64-bit LCG's high

@@ -13,7 +13,7 @@ use rayon::prelude::*;
 
 use crate::grid::{
     around_bit, bits, neighbour_steps, node_offset, row_bits, sides_of_rows, Block, BlockId, Halo,
-    InsideRows, Potential, SparseGrid, TileSides, AROUND, BLOCK_DIM,
+    IndexToWorld, InsideRows, Potential, SparseGrid, TileSides, AROUND, BLOCK_DIM,
 };
 use crate::mesh::Mesh;
 use crate::volume::GridData;
@@ -40,20 +40,6 @@ pub struct Polygonizer {
     sides: Vec<InsideRows>,
     /// The crossings' exact points are left out (a mesh without a solver reading them).
     mesh_only: bool,
-}
-
-/// Index space → world space.
-#[derive(Debug, Clone, Copy)]
-pub struct IndexToWorld {
-    pub origin: Vec3,
-    pub dx: f32,
-}
-
-impl IndexToWorld {
-    #[inline]
-    pub fn apply(&self, ijk: Vec3) -> Vec3 {
-        self.origin + ijk * self.dx
-    }
 }
 
 #[inline]

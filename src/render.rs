@@ -1,14 +1,13 @@
 //! A quick look at a surface: rays sphere-traced through a target's signed distance, shaded
 //! with one key light; written as a multi-layer EXR (RGBA beauty, Z depth, N normals in
-//! world space, as Nuke and Blender name them) or as an 8-bit PNG.
-
-use std::io::BufWriter;
-use std::path::Path;
+//! world space, as Nuke and Blender name them) or as an 8-bit PNG by
+//! [`crate::io::image`].
 
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::target::{Aabb, Target};
+use crate::grid::Aabb;
+use crate::target::Target;
 
 /// Where the camera looks from, toward the centre of the framed box.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -61,14 +60,6 @@ pub struct Render {
     pub depth: Vec<f32>,
     /// World-space unit normal where the ray hit, zero elsewhere.
     pub normal: Vec<Vec3>,
-}
-
-/// A surface could not be rendered or written.
-#[derive(Debug, thiserror::Error)]
-#[error("{path}: {message}")]
-pub struct RenderError {
-    pub path: String,
-    pub message: String,
 }
 
 /// Renders the zero set of `target` inside `frame` (a box the camera fits: its bounding
@@ -172,77 +163,6 @@ fn slab(eye: Vec3, ray: Vec3, frame: Aabb) -> Option<(f32, f32)> {
 fn normal_at(target: &dyn Target, p: Vec3, h: f32) -> Vec3 {
     let d = |e: Vec3| target.distance(p + e * h) - target.distance(p - e * h);
     Vec3::new(d(Vec3::X), d(Vec3::Y), d(Vec3::Z)).normalize_or_zero()
-}
-
-impl Render {
-    /// Writes by extension: `.exr` (RGBA, Z, N.X/N.Y/N.Z) or `.png` (beauty over grey).
-    pub fn write(&self, path: &Path) -> Result<(), RenderError> {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
-        let error = |message: String| RenderError {
-            path: path.display().to_string(),
-            message,
-        };
-        let write: fn(&Render, &Path) -> Result<(), String> = match ext.as_deref() {
-            Some("exr") => Render::write_exr,
-            Some("png") => Render::write_png,
-            _ => return Err(error("renders must end in .exr or .png".into())),
-        };
-        crate::io::write_atomically(path, |tmp| write(self, tmp)).map_err(error)
-    }
-
-    fn write_exr(&self, path: &Path) -> Result<(), String> {
-        use exr::prelude::*;
-        let flat = |f: &dyn Fn(usize) -> f32| -> FlatSamples {
-            FlatSamples::F32((0..self.rgba.len()).map(f).collect())
-        };
-        let channel = |name: &str, f: &dyn Fn(usize) -> f32| AnyChannel::new(name, flat(f));
-        let channels = AnyChannels::sort(SmallVec::from_vec(vec![
-            channel("R", &|i| self.rgba[i][0]),
-            channel("G", &|i| self.rgba[i][1]),
-            channel("B", &|i| self.rgba[i][2]),
-            channel("A", &|i| self.rgba[i][3]),
-            channel("Z", &|i| self.depth[i]),
-            channel("N.X", &|i| self.normal[i].x),
-            channel("N.Y", &|i| self.normal[i].y),
-            channel("N.Z", &|i| self.normal[i].z),
-        ]));
-        let layer = Layer::new(
-            (self.width, self.height),
-            LayerAttributes::named("surface"),
-            Encoding::FAST_LOSSLESS,
-            channels,
-        );
-        Image::from_layer(layer)
-            .write()
-            .to_file(path)
-            .map_err(|e| e.to_string())
-    }
-
-    fn write_png(&self, path: &Path) -> Result<(), String> {
-        let file = std::fs::File::create(path).map_err(|e| e.to_string())?;
-        let mut encoder =
-            png::Encoder::new(BufWriter::new(file), self.width as u32, self.height as u32);
-        encoder.set_color(png::ColorType::Rgb);
-        encoder.set_depth(png::BitDepth::Eight);
-        let background = 0.18f32;
-        let bytes: Vec<u8> = self
-            .rgba
-            .iter()
-            .flat_map(|&[r, g, b, a]| {
-                [r, g, b].map(|c| {
-                    let linear = c + background * (1.0 - a);
-                    (255.0 * linear.clamp(0.0, 1.0).powf(1.0 / 2.2)).round() as u8
-                })
-            })
-            .collect();
-        encoder
-            .write_header()
-            .and_then(|mut w| w.write_image_data(&bytes))
-            .map_err(|e| e.to_string())
-    }
 }
 
 #[cfg(test)]

@@ -17,16 +17,17 @@ mod timestep;
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
-use crate::flow::{Backtracked, Flow, OnNodes};
+use crate::flow::{Flow, OnNodes};
 use crate::grid::tube::{self, Reach};
+use crate::grid::IndexToWorld;
 use crate::grid::{
     bits, mask_offsets, node_offset, offset_coords, Halo, Potential, Precision, SparseGrid,
     BLOCK_DIM, BLOCK_NODES,
 };
 use crate::mesh::Mesh;
-use crate::polygonize::{Crossings, IndexToWorld, Polygonizer};
+use crate::polygonize::{Crossings, Polygonizer};
 use crate::stencil::{RowTerms, Stencil};
-use crate::target::Target;
+use crate::target::{Backtracked, Target};
 
 pub use any::AnySkin;
 pub use speed::{AttractionSample, SpeedParams};
@@ -59,6 +60,36 @@ impl Default for SkinParams {
             renormalize_sweeps: 1,
             precision: Precision::F32,
         }
+    }
+}
+
+impl SkinParams {
+    /// Every parameter in its range: rates and gains finite and non-negative (NaN
+    /// refused), the voxel size finite and positive, the band at least the 2 voxels the
+    /// stencils read, the safety factor in (0, 1].
+    pub fn check(&self) -> Result<(), SkinError> {
+        let s = &self.speed;
+        let out = |name, value, must| Err(SkinError::Parameter { name, value, must });
+        for (name, v) in [
+            ("alpha", s.alpha),
+            ("beta", s.beta),
+            ("volume_gain", s.volume_gain),
+            ("area_gain", s.area_gain),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return out(name, v, "a non-negative number");
+            }
+        }
+        if !(self.dx.is_finite() && self.dx > 0.0) {
+            return out("dx", self.dx, "a positive number");
+        }
+        if !(self.band_width.is_finite() && self.band_width >= 2.0) {
+            return out("band_width", self.band_width, "at least 2 voxels");
+        }
+        if !(self.safety > 0.0 && self.safety <= 1.0) {
+            return out("safety", self.safety, "in (0, 1]");
+        }
+        Ok(())
     }
 }
 
@@ -158,7 +189,14 @@ pub struct Skin<P> {
 }
 
 impl<P: Potential> Skin<P> {
-    /// A skin whose zero set is the surface of `start`, sampled on voxels of `params.dx`.
+    /// [`Skin::new`] with its parameters checked first ([`SkinParams::check`]).
+    pub fn try_new(start: &dyn Target, params: SkinParams) -> Result<Self, SkinError> {
+        params.check()?;
+        Ok(Self::new(start, params))
+    }
+
+    /// A skin whose zero set is the surface of `start`, sampled on voxels of `params.dx`
+    /// (parameters as given: [`Skin::try_new`] checks them).
     pub fn new(start: &dyn Target, params: SkinParams) -> Self {
         let dx = params.dx;
         let w = params.band_width;
@@ -660,4 +698,11 @@ impl Default for RatesScratch {
 pub enum SkinError {
     #[error("cannot restore the skin: {0}")]
     Incompatible(String),
+    /// A parameter out of its range ([`SkinParams::check`]); `name` is the field's.
+    #[error("{name} must be {must}, got {value}")]
+    Parameter {
+        name: &'static str,
+        value: f32,
+        must: &'static str,
+    },
 }

@@ -1,6 +1,7 @@
 //! What the skin is attracted to (paper §3.4): VDB level sets and fog volumes, analytic
 //! shapes, skeleton blobs, and unions of them.
 
+mod backtracked;
 mod particles;
 pub mod sample;
 mod shapes;
@@ -8,35 +9,15 @@ mod vdb;
 
 use glam::Vec3;
 
+use crate::grid::Aabb;
+
+pub use backtracked::Backtracked;
 pub use particles::{
     fluid_iso, iso_for_radius, kernel, rest_density, Density, DensityGrid,
     DEFAULT_SMOOTHING_LENGTH, MAX_SMOOTHING_LENGTH, VELOCITY_SUPPORT_RADII,
 };
 pub use shapes::{Blobs, BoxShape, Skeleton, Sphere, Torus, Union};
 pub use vdb::{FogTarget, LevelSetTarget};
-
-/// An axis-aligned box in world space.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Aabb {
-    pub min: Vec3,
-    pub max: Vec3,
-}
-
-impl Aabb {
-    pub fn union(self, other: Aabb) -> Aabb {
-        Aabb {
-            min: self.min.min(other.min),
-            max: self.max.max(other.max),
-        }
-    }
-
-    pub fn padded(self, by: f32) -> Aabb {
-        Aabb {
-            min: self.min - Vec3::splat(by),
-            max: self.max + Vec3::splat(by),
-        }
-    }
-}
 
 /// A target surface. `distance` is signed, negative inside, in world units: exact for
 /// level sets and analytic shapes; for density fields, (iso − G)/|∇G|, the first-order

@@ -9,7 +9,7 @@ use std::path::Path;
 
 use common::{activeskin, assert_usage_error, write_grid};
 
-use activeskin::particles::write_ply;
+use activeskin::io::ply::write_ply;
 use activeskin::target::{sample, Sphere};
 use glam::Vec3;
 

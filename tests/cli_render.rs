@@ -34,6 +34,12 @@ fn renders_a_sphere_to_exr_layers_and_png() {
         );
     };
     run(&exr_path, &["--size", "64x48", "--view", "front"]);
+    // The same image is the same file, byte for byte, however the threads ran (its tiles
+    // were once stored in the order their compression finished). 320x240: many tiles.
+    let (a, b) = (dir.path().join("a.exr"), dir.path().join("b.exr"));
+    run(&a, &["--size", "320x240"]);
+    run(&b, &["--size", "320x240"]);
+    assert!(std::fs::read(&a).unwrap() == std::fs::read(&b).unwrap());
 
     let image = exr::prelude::read_all_flat_layers_from_file(&exr_path).unwrap();
     let layer = &image.layer_data[0];

@@ -4,10 +4,11 @@
 use std::f32::consts::PI;
 
 use activeskin::flow::{Flow, Rigid, Traced};
+use activeskin::grid::Aabb;
 use activeskin::mesh::{hausdorff, Mesh};
 use activeskin::polygonize::mesh_vdb;
 use activeskin::skin::{Skin, SkinParams, SpeedParams};
-use activeskin::target::{sample, Aabb, BoxShape, LevelSetTarget, Sphere, Target};
+use activeskin::target::{sample, BoxShape, LevelSetTarget, Sphere, Target};
 use glam::Vec3;
 
 const DX: f32 = 1.0 / 32.0;

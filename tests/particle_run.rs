@@ -9,7 +9,6 @@ use std::path::Path;
 
 use activeskin::flow::Timing;
 use activeskin::frames::{InputFrames, OutputSpec, Outputs, ParticleInput, ParticleRun, Progress};
-use activeskin::mesh::Mesh;
 use activeskin::skin::{SkinParams, SpeedParams};
 use activeskin::target::{fluid_iso, DEFAULT_SMOOTHING_LENGTH};
 
@@ -82,7 +81,8 @@ fn the_library_runs_particles_into_meshes() {
     let dir = common::scratch();
     run_library(dir.path());
     for frame in 1..=4 {
-        let mesh = Mesh::read_obj(&dir.path().join(format!("skin.{frame:04}.obj"))).unwrap();
+        let mesh =
+            activeskin::io::obj::read(&dir.path().join(format!("skin.{frame:04}.obj"))).unwrap();
         let check = mesh.check();
         assert!(check.is_clean(), "frame {frame}: {check}");
         assert!(mesh.volume() > 0.0, "frame {frame}");
@@ -141,4 +141,77 @@ fn a_negative_first_frame_is_a_range_not_an_option() {
     let mesh = dir.path().join("skin.####.obj");
     let out = splash_command(&["--frames", "-3-2", "--mesh", mesh.to_str().unwrap()]);
     common::assert_one_line_error(&out, "frame -3 of the particles is missing");
+}
+
+/// The policy every front end shares lives in the library: parameters checked by the
+/// skin itself, the warm-up rule by the frame loop's inputs.
+#[test]
+fn the_library_checks_parameters_and_warms_up() {
+    use activeskin::frames::auto_warmup;
+    use activeskin::sequence::FramePattern;
+    use activeskin::skin::{AnySkin, SkinError};
+    use activeskin::target::Sphere;
+
+    let sphere = Sphere {
+        center: glam::Vec3::ZERO,
+        radius: 0.5,
+    };
+    let dx = 0.05;
+    let good = SkinParams {
+        dx,
+        speed: SpeedParams::default_for(dx, 4.0),
+        ..SkinParams::default()
+    };
+    assert!(AnySkin::try_new(&sphere, good).is_ok());
+    let refused = |params: SkinParams, field: &str| match AnySkin::try_new(&sphere, params).err() {
+        Some(SkinError::Parameter { name, .. }) => assert_eq!(name, field),
+        other => panic!("{field}: {other:?}"),
+    };
+    let mut p = good;
+    p.speed.alpha = f32::NAN;
+    refused(p, "alpha");
+    let mut p = good;
+    p.speed.beta = -1.0;
+    refused(p, "beta");
+    let mut p = good;
+    p.speed.volume_gain = f32::INFINITY;
+    refused(p, "volume_gain");
+    refused(SkinParams { dx: 0.0, ..good }, "dx");
+    refused(
+        SkinParams {
+            band_width: 1.0,
+            ..good
+        },
+        "band_width",
+    );
+    refused(
+        SkinParams {
+            safety: 0.0,
+            ..good
+        },
+        "safety",
+    );
+    let message = SkinParams { dx: -1.0, ..good }
+        .check()
+        .unwrap_err()
+        .to_string();
+    assert_eq!(message, "dx must be a positive number, got -1");
+
+    // ln(40)·fps/α frames: 23 at α 4 and 24 fps; none without attraction.
+    assert_eq!(auto_warmup(4.0, 24.0), 23);
+    assert_eq!(auto_warmup(0.0, 24.0), 0);
+    // A warm-up starts earlier, never before the sequence's first frame.
+    let mut input = InputFrames {
+        pattern: FramePattern::parse("f.####.ply").unwrap(),
+        existing: (3..=20).collect(),
+        range: (10, 20),
+    };
+    assert_eq!(input.warm_up(4), 10);
+    assert_eq!(input.range, (6, 20));
+    let mut input = InputFrames {
+        range: (10, 20),
+        ..input
+    };
+    assert_eq!(input.warm_up(100), 10);
+    assert_eq!(input.range, (3, 20));
 }

@@ -1,9 +1,9 @@
 //! The skin's reason to exist (paper §1, §6.1): on a static cloud whose particles jitter
 //! from frame to frame, the skin filters the noise in time, where surfacing each frame's
-//! density on its own flickers (`activeskin::particles::flicker`). Goal (issue 6): ≥ 3×
+//! density on its own flickers (`activeskin::measure::flicker`). Goal (issue 6): ≥ 3×
 //! less flicker at about the same accuracy.
 
-use activeskin::particles::flicker;
+use activeskin::measure::flicker;
 
 #[test]
 fn skin_flickers_three_times_less_than_per_frame_surfacing() {

@@ -9,7 +9,7 @@
 
 mod common;
 
-use activeskin::particles::read;
+use activeskin::io::particles::read;
 use common::data;
 use std::path::Path;
 
@@ -262,7 +262,7 @@ fn splashsurfs_json_and_its_frame_pattern() {
 /// particles, never panics, never reserves more than the file could hold.
 #[test]
 fn damaged_files_never_panic() {
-    use activeskin::particles::{parse, Format};
+    use activeskin::io::particles::{parse, Format};
     let gz = std::fs::read(data("sph/bgeo/ParticleData_Fluid_2.bgeo")).unwrap();
     let mut raw = Vec::new();
     std::io::Read::read_to_end(&mut flate2::read::GzDecoder::new(&gz[..]), &mut raw).unwrap();

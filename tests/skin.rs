@@ -378,7 +378,7 @@ impl<T: Target> Target for Steep<T> {
     fn distance(&self, p: Vec3) -> f32 {
         self.0.distance(p) * self.1
     }
-    fn bounds(&self) -> activeskin::target::Aabb {
+    fn bounds(&self) -> activeskin::grid::Aabb {
         self.0.bounds()
     }
 }

@@ -9,7 +9,7 @@ use std::path::Path;
 
 use common::{activeskin, Lcg};
 
-use activeskin::particles;
+use activeskin::io::particles;
 use activeskin::vdb;
 use glam::Vec3;
 

@@ -2,7 +2,7 @@
 //! is accepted is finite.
 #![no_main]
 
-use activeskin::particles::{parse, Format};
+use activeskin::io::particles::{parse, Format};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use activeskin::frames::{OutputSpec, Progress};
 use activeskin::grid::Precision;
-use activeskin::skin::{SkinParams, SpeedParams};
+use activeskin::skin::{SkinError, SkinParams, SpeedParams};
 
 use super::pattern_arg;
 use super::render::{parse_size, UpArg};
@@ -66,19 +66,6 @@ impl VelocityTime {
     }
 }
 
-/// What a start that is `d` voxels off the sequential skin fades to after the warm-up
-/// ([`PhysicsArgs::warmup_frames`] with `auto`): the attraction closes the gap as e^(−αt).
-pub const WARMUP_AUTO_FACTOR: f64 = 40.0;
-
-/// Frames for a start to fade to 1/[`WARMUP_AUTO_FACTOR`] of its offset at attraction
-/// rate `alpha` and `fps`: ln(40)·fps/α.
-fn auto_warmup(alpha: f64, fps: f64) -> i64 {
-    if alpha <= 0.0 {
-        return 0;
-    }
-    (WARMUP_AUTO_FACTOR.ln() * fps / alpha).ceil() as i64
-}
-
 #[derive(Clone, Copy, clap::ValueEnum)]
 pub enum PrecisionArg {
     F32,
@@ -95,7 +82,10 @@ impl PhysicsArgs {
     pub fn warmup_of(&self, spec: Option<&str>) -> anyhow::Result<i64> {
         match spec {
             None => Ok(0),
-            Some("auto") => Ok(auto_warmup(f64::from(self.alpha), self.fps)),
+            Some("auto") => Ok(activeskin::frames::auto_warmup(
+                f64::from(self.alpha),
+                self.fps,
+            )),
             Some(n) => match n.parse::<i64>() {
                 Ok(n) if n >= 0 => Ok(n),
                 _ => usage!("--warmup must be a number of frames or `auto`, got '{n}'"),
@@ -108,23 +98,9 @@ impl PhysicsArgs {
         if !self.fps.is_finite() || self.fps <= 0.0 {
             usage!("--fps must be a positive number");
         }
-        for (name, v) in [
-            ("--alpha", self.alpha),
-            ("--beta", self.beta.unwrap_or(0.0)),
-            ("--volume-gain", self.volume_gain),
-            ("--area-gain", self.area_gain),
-        ] {
-            // Rejects NaN as well as negatives.
-            if !(v.is_finite() && v >= 0.0) {
-                usage!("{name} must be a non-negative number, got {v}");
-            }
-        }
         let dx = self.voxel_size.unwrap_or(default_dx);
-        if !(dx.is_finite() && dx > 0.0) {
-            usage!("--voxel-size must be a positive number, got {dx}");
-        }
         let defaults = SpeedParams::default_for(dx, self.alpha);
-        Ok(SkinParams {
+        let params = SkinParams {
             dx,
             speed: SpeedParams {
                 alpha: self.alpha,
@@ -138,7 +114,19 @@ impl PhysicsArgs {
                 PrecisionArg::Fixed16 => Precision::Fixed16,
             },
             ..SkinParams::default()
-        })
+        };
+        // The library checks; the message names the option.
+        params.check().map_err(|e| match e {
+            SkinError::Parameter { name, value, must } => {
+                let flag = match name {
+                    "dx" => "--voxel-size".to_string(),
+                    other => format!("--{}", other.replace('_', "-")),
+                };
+                super::bad_usage(format!("{flag} must be {must}, got {value}"))
+            }
+            other => other.into(),
+        })?;
+        Ok(params)
     }
 }
 
@@ -196,4 +184,14 @@ impl OutputArgs {
             reads: Vec::new(),
         })
     }
+}
+
+/// A run about to be cut into chunks, as its command sees it.
+pub struct Shot<'a> {
+    /// Every frame of the shot.
+    pub range: (i64, i64),
+    pub physics: &'a PhysicsArgs,
+    pub outputs: &'a OutputArgs,
+    /// Options every chunk adds, so that all read the shot alike.
+    pub fixed: Vec<String>,
 }

@@ -7,15 +7,32 @@ mod sph;
 use std::time::Instant;
 
 use activeskin::grid::Fixed16;
+use activeskin::grid::IndexToWorld;
 use activeskin::grid::SparseGrid;
 use activeskin::mesh::Mesh;
-use activeskin::polygonize::{Crossings, IndexToWorld, Polygonizer};
+use activeskin::polygonize::{Crossings, Polygonizer};
 use activeskin::skin::{Skin, SkinParams, SpeedParams};
 use activeskin::target::{sample, Blobs, Sphere, Target, Torus, Union};
 use activeskin::validate;
 use activeskin::vdb::Grid;
+use anyhow::Context;
 use glam::Vec3;
 use serde_json::json;
+
+/// Runs `command`, failing with its stderr; returns the wall time in seconds.
+fn timed(command: &mut std::process::Command) -> anyhow::Result<f64> {
+    let start = std::time::Instant::now();
+    let output = command
+        .output()
+        .with_context(|| format!("cannot run {command:?}"))?;
+    if !output.status.success() {
+        anyhow::bail!(
+            "{command:?} failed: {}",
+            String::from_utf8_lossy(&output.stderr).trim()
+        );
+    }
+    Ok(start.elapsed().as_secs_f64())
+}
 
 #[derive(clap::Args)]
 pub struct BenchArgs {
@@ -79,7 +96,7 @@ fn our_step(voxels: f32, steps: usize) -> (f64, f64) {
     let dt = skin.stable_dt(&target);
     skin.step(&target, dt);
     let mut nodes = 0usize;
-    let start = Instant::now();
+    let start = std::time::Instant::now();
     for _ in 0..steps {
         nodes += skin.grid().active_node_count();
         skin.step(&target, dt);
@@ -105,7 +122,7 @@ fn our_step_in_flow(voxels: f32, steps: usize) -> (f64, f64) {
     // Five sub-steps a call: the statistics an advance ends with (components, Euler
     // characteristic) are a frame's cost, not a step's.
     let (mut nodes, mut substeps) = (0usize, 0u32);
-    let start = Instant::now();
+    let start = std::time::Instant::now();
     for _ in 0..steps.div_ceil(5) {
         let before = skin.grid().active_node_count();
         let stats = skin.advance_in_flow(&target, Some(&flow), f64::from(5.0 * dt));
@@ -203,10 +220,10 @@ fn solver_races(
     let mut theirs_mesh_s = 0.0;
     let mut theirs_polygons = 0;
     for _ in 0..2 {
-        let start = Instant::now();
+        let start = std::time::Instant::now();
         polygonizer.run(&band, xf, &mut mesh, &mut crossings);
         ours_mesh_s = start.elapsed().as_secs_f64();
-        let start = Instant::now();
+        let start = std::time::Instant::now();
         let theirs = source.volume_to_mesh(0.0, 0.0)?;
         theirs_mesh_s = start.elapsed().as_secs_f64();
         theirs_polygons = theirs.triangles.len() / 3 + theirs.quads.len() / 4;
@@ -342,7 +359,7 @@ fn solver_races(
     );
 
     // Temporal quality on a jittered static cloud: the skin against per-frame surfacing.
-    let f = activeskin::particles::flicker::jittered_ball(0.05, 0.3, 16, 4.0);
+    let f = activeskin::measure::flicker::jittered_ball(0.05, 0.3, 16, 4.0);
     report.insert(
         "flicker".into(),
         json!({"skin_voxels": f.skin, "per_frame_voxels": f.per_frame, "gain": f.per_frame / f.skin,

@@ -6,9 +6,11 @@
 use std::path::{Path, PathBuf};
 
 use activeskin::flow::{Flow, Rigid, Timing};
-use activeskin::particles::{self, splash};
+use activeskin::grid::Aabb;
+use activeskin::io::ply;
+use activeskin::particles::splash;
 use activeskin::skin::AnySkin;
-use activeskin::target::{iso_for_radius, Aabb, Blobs, Density, Sphere, Target, Union};
+use activeskin::target::{iso_for_radius, Blobs, Density, Sphere, Target, Union};
 use glam::Vec3;
 
 use super::args::{OutputArgs, PhysicsArgs, PrecisionArg};
@@ -154,7 +156,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     std::fs::create_dir_all(args.out.join("splash"))?;
     for (frame, cloud) in (1..).zip(&clouds) {
         let path = args.out.join(format!("splash/particles.{frame:04}.ply"));
-        particles::write_ply(&path, cloud)?;
+        ply::write_ply(&path, cloud)?;
     }
     let out = outputs(&args.out, "splash", args.quiet);
     run_frames(

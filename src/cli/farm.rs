@@ -10,7 +10,6 @@ use std::process::Command as Process;
 use anyhow::Context;
 use clap::FromArgMatches;
 
-use super::args::{OutputArgs, PhysicsArgs};
 use super::{particles, skin, Cli, Command};
 
 #[derive(clap::Args)]
@@ -40,16 +39,6 @@ pub struct FarmArgs {
     /// The command each chunk runs: `skin` or `particles` and its options, after `--`.
     #[arg(last = true, required = true)]
     command: Vec<String>,
-}
-
-/// A run about to be cut into chunks, as its command sees it.
-pub struct Shot<'a> {
-    /// Every frame of the shot.
-    pub range: (i64, i64),
-    pub physics: &'a PhysicsArgs,
-    pub outputs: &'a OutputArgs,
-    /// Options every chunk adds, so that all read the shot alike.
-    pub fixed: Vec<String>,
 }
 
 pub fn run(args: &FarmArgs) -> anyhow::Result<()> {

@@ -77,8 +77,10 @@ pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
     }
     let mesh = mesh_vdb(data, |v| sign * (v - iso) / range);
     // The measures while the file is written and synced.
-    let (written, (area, volume)) =
-        rayon::join(|| mesh.write(&args.output), || mesh.area_and_volume());
+    let (written, (area, volume)) = rayon::join(
+        || activeskin::io::mesh::write(&mesh, &args.output),
+        || mesh.area_and_volume(),
+    );
     written?;
     let mut line = format!(
         "{}: {} vertices, {} triangles, area {area:.6}, volume {volume:.6}",

@@ -6,10 +6,9 @@ use activeskin::frames::{OutputSpec, Outputs, ParticleInput, ParticleRun};
 use activeskin::target::{fluid_iso, DEFAULT_SMOOTHING_LENGTH};
 use anyhow::Context;
 
-use super::args::{OutputArgs, PhysicsArgs, VelocityTime};
-use super::farm::Shot;
+use super::args::{OutputArgs, PhysicsArgs, Shot, VelocityTime};
 use super::pattern_arg;
-use super::skin::{input_frames, warm_up};
+use super::skin::input_frames;
 
 #[derive(clap::Args)]
 pub struct ParticlesArgs {
@@ -97,7 +96,7 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     }
     let timing = args.velocity_time.or(Timing::Mid);
     let mut input = input_frames("--particles", &args.particles, args.frames.as_deref())?;
-    let write_from = warm_up(&mut input, args.physics.warmup_frames()?);
+    let write_from = input.warm_up(args.physics.warmup_frames()?);
     let params = args.physics.params(particles.dx)?;
     if let Some(spec) = &args.density_out {
         let out = pattern_arg(spec)?;

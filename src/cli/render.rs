@@ -87,8 +87,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         size,
         dx,
     );
-    image
-        .write(&args.output)
+    activeskin::io::image::write(&image, &args.output)
         .with_context(|| format!("rendering {}", args.input.display()))?;
     let hits = image.rgba.iter().filter(|p| p[3] > 0.0).count();
     println!(

@@ -11,8 +11,7 @@ use activeskin::frames::{
 use activeskin::sequence::{parse_range, FramePattern};
 use activeskin::skin::AnySkin;
 
-use super::args::{OutputArgs, PhysicsArgs, VelocityTime};
-use super::farm::Shot;
+use super::args::{OutputArgs, PhysicsArgs, Shot, VelocityTime};
 use super::{bad_usage, pattern_arg};
 
 #[derive(clap::Args)]
@@ -107,18 +106,6 @@ pub fn run_frames<'t>(
     )?)
 }
 
-/// Moves the start of `input`'s range `warmup` frames earlier, not before the sequence's
-/// first frame (a held single file has none); returns the first frame to write.
-pub fn warm_up(input: &mut InputFrames, warmup: i64) -> i64 {
-    let first = input.range.0;
-    let earliest = match input.existing.first() {
-        Some(&f) if !input.pattern.is_held() => f.min(first),
-        _ => i64::MIN,
-    };
-    input.range.0 = first.saturating_sub(warmup).max(earliest);
-    first
-}
-
 /// The velocity options of `skin`.
 #[derive(clap::Args)]
 pub struct VelocityArgs {
@@ -175,71 +162,25 @@ impl VelocityArgs {
     }
 }
 
-/// Settles `--velocity-scale auto`: measured from the first frame pairs; with no pair to
-/// measure on (one frame, no velocity), the scale stays 1; with a poor fit the velocity
-/// is left out, said in one line. Returns the estimate for the stats.
+/// Settles `--velocity-scale auto` ([`VelocityInput::settle_scale`]), saying how in one
+/// line unless quiet. Returns the estimate for the stats.
 fn settle_scale(
     velocity: &mut VelocityInput,
     input: &InputFrames,
     args: &SkinArgs,
 ) -> anyhow::Result<Option<ScaleEstimate>> {
-    if velocity.source == VelocitySource::Off {
-        return Ok(None);
-    }
     let timing = match args.velocity.velocity_time {
         VelocityTime::Auto => None,
         given => Some(given.or(Timing::Start)),
     };
-    let estimate = velocity.measure_scale(
-        input,
-        (args.grid.as_deref(), args.target_units.into()),
-        args.physics.fps,
-        timing,
-    )?;
-    let Some(((a, _), _)) = estimate.fits.first() else {
-        return Ok(None);
-    };
-    let b = estimate.fits.last().map_or(*a, |f| f.0 .1);
-    let best_r2 = estimate
-        .fits
-        .iter()
-        .map(|f| f.1.r2)
-        .fold(f64::MIN, f64::max);
-    let say = |line: String| {
+    let target = (args.grid.as_deref(), args.target_units.into());
+    let settled = velocity.settle_scale(input, target, args.physics.fps, timing)?;
+    Ok(settled.map(|(estimate, note)| {
         if !args.outputs.quiet {
-            eprintln!("activeskin: {line}");
+            eprintln!("activeskin: {note}");
         }
-    };
-    match estimate.scale {
-        Some(k) => {
-            velocity.scale = k as f32;
-            let r2 = estimate
-                .fits
-                .iter()
-                .map(|f| f.1.r2)
-                .fold(f64::MAX, f64::min);
-            let timing = match estimate.timing {
-                Timing::Start => "start (each frame's velocity carries the liquid to the next)",
-                Timing::Mid => "mid (the mean of both frames' velocities carries it)",
-            };
-            let how = if args.velocity.velocity_time == VelocityTime::Auto {
-                "measured"
-            } else {
-                "given"
-            };
-            say(format!(
-                "velocity: scale {k:.4} measured from frames {a}–{b} (R² ≥ {r2:.2}), timing {timing} {how}; --velocity-scale, --velocity-time to override"
-            ));
-        }
-        None => {
-            velocity.source = VelocitySource::Off;
-            say(format!(
-                "warning: the velocity does not explain the surface's motion over frames {a}–{b} (R² {best_r2:.2} < {}): left out; give --velocity-scale to use it anyway",
-                activeskin::flow::scale::MIN_R2
-            ));
-        }
-    }
-    Ok(Some(estimate))
+        estimate
+    }))
 }
 
 /// What `farm` needs to cut this run into chunks: the shot's frames, and the options that
@@ -281,7 +222,7 @@ fn velocity_timing(args: &SkinArgs, estimate: Option<&ScaleEstimate>) -> Timing 
 
 pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
     let mut input = input_frames("--target", &args.target, args.frames.as_deref())?;
-    let write_from = warm_up(&mut input, args.physics.warmup_frames()?);
+    let write_from = input.warm_up(args.physics.warmup_frames()?);
     let range = input.range;
     let (mut velocity, auto_scale) = args.velocity.input()?;
     let estimate = if auto_scale {

@@ -11,9 +11,9 @@ use hashbrown::HashMap;
 use rayon::prelude::*;
 
 use super::Flow;
+use crate::grid::IndexToWorld;
 use crate::grid::BLOCK_NODES;
 use crate::grid::{block_of, node_offset, offset_coords, Potential, SparseGrid, AROUND, BLOCK_DIM};
-use crate::polygonize::IndexToWorld;
 
 /// `flow` at the nodes of the lattice `xf`, in blocks of 8³ around a skin's band.
 pub struct OnNodes<'a> {

@@ -7,11 +7,25 @@ use glam::Vec3;
 
 use super::FrameError;
 use crate::grid::REACH_VOXELS;
-use crate::particles::{self, motion::frame_velocities, Particles};
+use crate::io::particles;
+use crate::particles::{motion::frame_velocities, Particles};
 use crate::sequence::{FramePattern, PatternError};
 use crate::target::{Density, DensityGrid, MAX_SMOOTHING_LENGTH, VELOCITY_SUPPORT_RADII};
 #[cfg(feature = "vdb")]
 use crate::vdb::{self, Grid, WriteOptions};
+
+/// What a start that is `d` voxels off the sequential skin fades to after an automatic
+/// warm-up ([`auto_warmup`]): the attraction closes the gap as e^(−αt).
+pub const WARMUP_AUTO_FACTOR: f64 = 40.0;
+
+/// Frames for a start to fade to 1/[`WARMUP_AUTO_FACTOR`] of its offset at attraction
+/// rate `alpha` (1/s) and `fps`: ln(40)·fps/α; none without attraction.
+pub fn auto_warmup(alpha: f64, fps: f64) -> i64 {
+    if !(alpha > 0.0 && fps > 0.0) {
+        return 0;
+    }
+    (WARMUP_AUTO_FACTOR.ln() * fps / alpha).ceil().min(1e9) as i64
+}
 
 /// An input sequence: its pattern, the frames found on disk (sorted; none for one held
 /// file), the range to run.
@@ -22,6 +36,20 @@ pub struct InputFrames {
 }
 
 impl InputFrames {
+    /// Moves the start of the range `warmup` frames earlier, not before the sequence's
+    /// first frame (a held single file has none): a chunk or a `--frames` range whose
+    /// skin starts from its first target, warmed up on the frames before, meets the skin a
+    /// whole run would have there. Returns the first frame to write.
+    pub fn warm_up(&mut self, warmup: i64) -> i64 {
+        let first = self.range.0;
+        let earliest = match self.existing.first() {
+            Some(&f) if !self.pattern.is_held() => f.min(first),
+            _ => i64::MIN,
+        };
+        self.range.0 = first.saturating_sub(warmup.max(0)).max(earliest);
+        first
+    }
+
     /// The sequence given as `flag` (e.g. `--target`); the range is `frames`, or every
     /// frame found.
     /// A file without a frame number is held for every frame of `frames`, which must be

@@ -9,10 +9,11 @@ use hashbrown::HashMap;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::FrameError;
+use crate::grid::Aabb;
 use crate::render::{self, Up, View};
 use crate::sequence::FramePattern;
 use crate::skin::{AnySkin, StepStats};
-use crate::target::{Aabb, LevelSetTarget, Target};
+use crate::target::{LevelSetTarget, Target};
 #[cfg(feature = "vdb")]
 use crate::vdb::{self, Grid, WriteOptions};
 use crate::volume::GridData;
@@ -176,7 +177,7 @@ impl Outputs {
         started: Instant,
     ) -> Result<(), FrameError> {
         if let Some(pattern) = &self.mesh {
-            skin.mesh().write(&pattern.path(frame))?;
+            crate::io::mesh::write(skin.mesh(), &pattern.path(frame))?;
         }
         if let Some((pattern, size, camera)) = &mut self.render {
             let data = level_set;
@@ -184,8 +185,8 @@ impl Outputs {
             let target = LevelSetTarget::new(data);
             let bounds = target.bounds();
             let frame_box = *camera.get_or_insert_with(|| framing(bounds));
-            render::render(&target, frame_box, (View::Perspective, self.up), *size, dx)
-                .write(&pattern.path(frame))?;
+            let image = render::render(&target, frame_box, (View::Perspective, self.up), *size, dx);
+            crate::io::image::write(&image, &pattern.path(frame))?;
         }
         let ms = started.elapsed().as_secs_f64() * 1e3;
         // Measured on the mesh written (the settled skin's), like χ and the components.

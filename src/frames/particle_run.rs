@@ -8,7 +8,8 @@ use std::sync::Arc;
 
 use super::{FrameError, FrameInput, InputFrames, Outputs, ParticleFrame, ParticleInput};
 use crate::flow::{Flow, FlowMap, Timing};
-use crate::particles::{self, Particles};
+use crate::io::particles;
+use crate::particles::Particles;
 use crate::skin::{AnySkin, SkinParams};
 use crate::target::DensityGrid;
 

@@ -6,8 +6,8 @@ use std::path::Path;
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::scale::{self, ScaleFit};
 use super::{FrameError, InputFrames};
-use crate::flow::scale::{self, ScaleFit};
 use crate::flow::{Flow, GridFlow, Mean, Timing};
 use crate::sequence::FramePattern;
 use crate::target::{FogTarget, LevelSetTarget, Target};
@@ -328,6 +328,57 @@ const SCALE_PAIRS: usize = 3;
 const SCALE_POINTS: usize = 20_000;
 
 impl VelocityInput {
+    /// Settles an automatic scale: measured on the first frame pairs
+    /// ([`VelocityInput::measure_scale`]); with no pair to measure on (one frame, no
+    /// velocity) the scale stays as it is; with a poor fit the velocity is left out.
+    /// Returns the estimate, for the stats, and one line saying what was settled.
+    pub fn settle_scale(
+        &mut self,
+        input: &InputFrames,
+        target: (Option<&str>, TargetUnits),
+        fps: f64,
+        timing: Option<Timing>,
+    ) -> Result<Option<(ScaleEstimate, String)>, FrameError> {
+        if self.source == VelocitySource::Off {
+            return Ok(None);
+        }
+        let estimate = self.measure_scale(input, target, fps, timing)?;
+        let Some(((a, _), _)) = estimate.fits.first() else {
+            return Ok(None);
+        };
+        let b = estimate.fits.last().map_or(*a, |f| f.0 .1);
+        let r2 = estimate.fits.iter().map(|f| f.1.r2);
+        let (worst_r2, best_r2) = (
+            r2.clone().fold(f64::MAX, f64::min),
+            r2.fold(f64::MIN, f64::max),
+        );
+        let note = match estimate.scale {
+            Some(k) => {
+                self.scale = k as f32;
+                let carried = match estimate.timing {
+                    Timing::Start => "start (each frame's velocity carries the liquid to the next)",
+                    Timing::Mid => "mid (the mean of both frames' velocities carries it)",
+                };
+                let how = if timing.is_none() {
+                    "measured"
+                } else {
+                    "given"
+                };
+                format!(
+                    "velocity: scale {k:.4} measured from frames {a}–{b} (R² ≥ {worst_r2:.2}), timing {carried} {how}; --velocity-scale, --velocity-time to override"
+                )
+            }
+            None => {
+                self.source = VelocitySource::Off;
+                format!(
+                    "warning: the velocity does not explain the surface's motion over frames {a}–{b} (R² {best_r2:.2} < {}): left out; give --velocity-scale to use it anyway",
+                    scale::MIN_R2
+                )
+            }
+        };
+        Ok(Some((estimate, note)))
+    }
+
     /// Measures the factor that turns the velocity into world units per second from the
     /// first frame pairs of `frames` whose level sets (grid `grid`, distances in `units`)
     /// and velocities exist:

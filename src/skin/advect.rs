@@ -11,10 +11,10 @@ use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::flow::Flow;
+use crate::grid::IndexToWorld;
 use crate::grid::{
     offset_coords, Potential, SparseGrid, WideHalo, BLOCK_DIM, BLOCK_NODES, WIDE_DIM,
 };
-use crate::polygonize::IndexToWorld;
 
 /// Scratch reused across steps, per node: the backward trace, the values before
 /// advection, the bounds of the forward interpolation, and each pass's output.

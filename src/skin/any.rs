@@ -23,6 +23,11 @@ macro_rules! each {
 }
 
 impl AnySkin {
+    /// [`AnySkin::new`] with its parameters checked first ([`SkinParams::check`]).
+    pub fn try_new(start: &dyn Target, params: SkinParams) -> Result<Self, SkinError> {
+        params.check()?;
+        Ok(Self::new(start, params))
+    }
     pub fn new(start: &dyn Target, params: SkinParams) -> Self {
         match params.precision {
             Precision::F32 => AnySkin::F32(Skin::new(start, params)),

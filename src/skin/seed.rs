@@ -9,8 +9,8 @@ use rayon::prelude::*;
 
 use super::Skin;
 use crate::grid::{offset_coords, Potential, AROUND, BLOCK_DIM, BLOCK_NODES};
-use crate::polygonize::IndexToWorld;
-use crate::target::{Aabb, Target};
+use crate::grid::{Aabb, IndexToWorld};
+use crate::target::Target;
 
 /// How far from a block's centre the target's surface may be for the block to hold part
 /// of the band: its half-diagonal, the band and a voxel.

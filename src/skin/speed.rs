@@ -3,7 +3,9 @@
 
 use glam::{IVec3, Vec3};
 
-use crate::polygonize::{IndexToWorld, LocalCrossings};
+use crate::polygonize::LocalCrossings;
+
+use crate::grid::IndexToWorld;
 use crate::stencil::Stencil;
 
 /// Where the attraction term reads the target (§4.3).

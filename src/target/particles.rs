@@ -12,8 +12,10 @@ use rayon::prelude::*;
 use crate::grid::{offset_coords, AROUND};
 use crate::volume::{GridClass, GridData, Transform, LEAF_VOXELS, MASK_WORDS};
 
-use super::{Aabb, Target};
+use super::Target;
+
 use crate::flow::Flow;
+use crate::grid::Aabb;
 
 mod raster;
 pub use raster::DensityGrid;

@@ -1,6 +1,8 @@
 //! Analytic targets: sphere, torus, box, skeleton blobs (Figs. 6 and 7), union.
 
-use super::{density_distance, Aabb, Target};
+use super::{density_distance, Target};
+
+use crate::grid::Aabb;
 use glam::Vec3;
 
 #[derive(Debug, Clone, Copy)]

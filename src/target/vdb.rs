@@ -1,7 +1,9 @@
 //! Targets read from VDB grids: a level set (signed distance, trilinear) or a fog volume
 //! with an iso value.
 
-use super::{density_distance, Aabb, Target};
+use super::{density_distance, Target};
+
+use crate::grid::Aabb;
 use crate::stencil::limited_tricubic;
 use crate::volume::{GridData, LEAF_VOXELS};
 use glam::{IVec3, Mat3, Vec3};

@@ -193,7 +193,7 @@ pub fn read_mesh(path: &Path) -> Option<Mesh> {
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
     {
-        return Some(Mesh::read_obj(path).unwrap());
+        return Some(activeskin::io::obj::read(path).unwrap());
     }
     let mut mesh = Mesh::default();
     let end = bytes.windows(11).position(|w| w == b"end_header\n")? + 11;

@@ -8,12 +8,13 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::time::Instant;
 
+use activeskin::io::ply::write_ply;
+use activeskin::measure::flicker::jittered;
 use activeskin::mesh::{mean_distance, Mesh};
-use activeskin::particles::flicker::jittered;
-use activeskin::particles::write_ply;
-use anyhow::{bail, Context};
+
+use super::timed;
+
 use glam::{IVec3, Vec3};
 use serde_json::json;
 
@@ -79,21 +80,6 @@ fn splashsurf(given: Option<&Path>) -> Result<PathBuf, String> {
     } else {
         Err(format!("`cargo install splashsurf` failed ({status})"))
     }
-}
-
-/// Runs `command`, failing with its stderr; returns the wall time in seconds.
-pub(super) fn timed(command: &mut Command) -> anyhow::Result<f64> {
-    let start = Instant::now();
-    let output = command
-        .output()
-        .with_context(|| format!("cannot run {command:?}"))?;
-    if !output.status.success() {
-        bail!(
-            "{command:?} failed: {}",
-            String::from_utf8_lossy(&output.stderr).trim()
-        );
-    }
-    Ok(start.elapsed().as_secs_f64())
 }
 
 /// activeskin on `dir/cloud_####.ply`, frames 1 to `frames`, meshes into
@@ -162,7 +148,11 @@ fn read_meshes(
     frames: std::ops::RangeInclusive<usize>,
 ) -> anyhow::Result<Vec<Mesh>> {
     frames
-        .map(|f| Ok(Mesh::read_obj(&dir.join(format!("{prefix}_{f:04}.obj")))?))
+        .map(|f| {
+            Ok(activeskin::io::obj::read(
+                &dir.join(format!("{prefix}_{f:04}.obj")),
+            )?)
+        })
         .collect()
 }
 

@@ -15,8 +15,8 @@ use std::process::Command;
 
 use activeskin::flow::Flow;
 use activeskin::frames::ParticleInput;
+use activeskin::io::particles;
 use activeskin::mesh::Mesh;
-use activeskin::particles;
 use activeskin::target::{fluid_iso, Density, LevelSetTarget, Target, DEFAULT_SMOOTHING_LENGTH};
 use activeskin::vdb::Grid;
 use anyhow::Context;
@@ -24,7 +24,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use serde_json::json;
 
-use super::particles::timed;
+use super::timed;
 
 /// The cache's file names, frame numbers unpadded as SPlisHSPlasH writes them.
 const STEM: &str = "dam_break_";
@@ -262,7 +262,7 @@ pub fn race(
         (1..=frames)
             .map(|f| {
                 let path = dir.join(name(f));
-                Mesh::read_obj(&path).with_context(|| format!("{}", path.display()))
+                activeskin::io::obj::read(&path).with_context(|| format!("{}", path.display()))
             })
             .collect()
     };

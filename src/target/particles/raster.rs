@@ -11,9 +11,10 @@ use rayon::prelude::*;
 
 use super::Density;
 use crate::flow::{Flow, FlowMap};
+use crate::grid::Aabb;
 use crate::grid::{offset_coords, AROUND, BLOCK_NODES};
 use crate::stencil::floor_ivec3;
-use crate::target::{Aabb, Target};
+use crate::target::Target;
 use crate::volume::{GridClass, GridData, Transform, MASK_WORDS};
 
 const DIM: i32 = 8;

@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 
-use super::{Flow, Timing};
+use crate::flow::{Flow, Timing};
 use crate::target::Target;
 
 /// The fit of one frame pair.
@@ -211,7 +211,8 @@ pub fn choose_timing(candidates: &[(Timing, Vec<ScaleFit>)]) -> (Timing, Option<
 mod tests {
     use super::*;
     use crate::flow::Rigid;
-    use crate::target::{Aabb, Sphere};
+    use crate::grid::Aabb;
+    use crate::target::Sphere;
 
     /// A sphere with bumps of `amplitude` that change between frames.
     struct Bumpy(Sphere, f32, f32);

@@ -1,0 +1,83 @@
+//! Meshes to and from files: OBJ ([`super::obj`]) or PLY ([`super::ply`]) chosen by
+//! extension, each written through a temporary file renamed into place.
+
+use std::io::Write;
+use std::path::Path;
+
+use rayon::prelude::*;
+
+use crate::mesh::Mesh;
+
+/// Why a mesh could not be written or read.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {message}", path.display())]
+pub struct MeshError {
+    pub path: std::path::PathBuf,
+    pub message: String,
+}
+
+/// OBJ or PLY by the file's extension.
+pub fn write(mesh: &Mesh, path: &Path) -> Result<(), MeshError> {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+    {
+        Some(e) if e == "obj" => super::obj::write(mesh, path),
+        Some(e) if e == "ply" => super::ply::write_mesh(mesh, path),
+        _ => Err(MeshError {
+            path: path.into(),
+            message: "mesh files must end in .obj or .ply".into(),
+        }),
+    }
+}
+
+pub(crate) fn write_with(
+    path: &Path,
+    body: impl FnOnce(&mut (dyn Write + Send)) -> std::io::Result<()>,
+) -> Result<(), MeshError> {
+    super::write_atomically(path, |tmp| {
+        let file = super::EagerWriteback::create(tmp).map_err(|e| e.to_string())?;
+        let mut w = std::io::BufWriter::new(file);
+        body(&mut w)
+            .and_then(|()| w.flush())
+            .map_err(|e| e.to_string())?;
+        w.get_ref().sync().map_err(|e| e.to_string())
+    })
+    .map_err(|message| MeshError {
+        path: path.into(),
+        message,
+    })
+}
+
+/// Writes `items` as fixed-size binary records of `size` bytes, each laid out by `record`
+/// (index, item, its bytes), a chunk at a time in parallel.
+pub(crate) fn write_records<T: Sync>(
+    w: &mut (dyn Write + Send),
+    items: &[T],
+    size: usize,
+    record: impl Fn(usize, &T, &mut [u8]) + Sync,
+) -> std::io::Result<()> {
+    const CHUNK: usize = 1 << 16;
+    let encode = |c: usize, chunk: &[T], buffer: &mut Vec<u8>| {
+        buffer.resize(chunk.len() * size, 0);
+        buffer
+            .par_chunks_mut(size)
+            .zip(chunk)
+            .enumerate()
+            .for_each(|(i, (out, item))| record(c * CHUNK + i, item, out));
+    };
+    // One chunk is written while the next is laid out.
+    let mut chunks = items.chunks(CHUNK).enumerate();
+    let (mut ready, mut next) = (Vec::new(), Vec::new());
+    let Some((c, chunk)) = chunks.next() else {
+        return Ok(());
+    };
+    encode(c, chunk, &mut ready);
+    for (c, chunk) in chunks {
+        let (written, ()) = rayon::join(|| w.write_all(&ready), || encode(c, chunk, &mut next));
+        written?;
+        std::mem::swap(&mut ready, &mut next);
+    }
+    w.write_all(&ready)
+}

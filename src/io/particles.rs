@@ -1,0 +1,434 @@
+//! Particle frames from files (paper §6.1), the format chosen by extension: PLY
+//! ([`super::ply`]), legacy VTK ([`super::vtk`]), VTK XML ([`super::vtu`]), partio BGEO
+//! ([`super::bgeo`]), splashsurf's JSON ([`super::json`]), XYZ/CSV text ([`super::text`]),
+//! and OpenVDB point data grids through the bridge (feature `vdb`). Whatever the format,
+//! positions must be finite, velocities finite and radii positive.
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+
+use super::json::read_json;
+use super::ply::read_ply;
+use super::text::read_text;
+use crate::particles::Particles;
+
+/// A particle frame that cannot be read.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {message}", path.display())]
+pub struct ParticleError {
+    pub path: PathBuf,
+    pub message: String,
+}
+
+/// A particle file format read from bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    Ply,
+    /// `x y z [radius]` per line, spaces or commas, optional header.
+    Text,
+    /// Legacy VTK, ASCII or binary ([`super::vtk`]).
+    Vtk,
+    /// VTK XML points, `.vtu` or `.vtp` ([`super::vtu`]).
+    Vtu,
+    /// Classic BGEO as partio writes it, gzipped or not ([`super::bgeo`]).
+    Bgeo,
+    /// splashsurf's JSON: `[[x, y, z], …]`.
+    Json,
+}
+
+/// Reads a frame by extension: `.ply`, `.vtk`, `.vtu` / `.vtp` (and `.pvtu` / `.pvtp`,
+/// every piece file they list), `.bgeo` (`.bgeo.gz`), `.vdb` (the first point data grid),
+/// `.json` (splashsurf's), or `.xyz` / `.csv` / `.txt`.
+pub fn read(path: &Path) -> Result<Particles, ParticleError> {
+    let error = |message: String| ParticleError {
+        path: path.to_path_buf(),
+        message,
+    };
+    if let Some(why) = super::not_a_file(path) {
+        return Err(error(why));
+    }
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    if ext.as_deref() == Some("vdb") {
+        #[cfg(feature = "vdb")]
+        {
+            // The VDB reader names the file in its own errors.
+            let particles = read_vdb(path).map_err(|e| error(e.reason()))?;
+            return check(particles).map_err(error);
+        }
+        #[cfg(not(feature = "vdb"))]
+        return Err(error(
+            "VDB point files need activeskin built with the `vdb` feature".into(),
+        ));
+    }
+    if matches!(ext.as_deref(), Some("pvtu" | "pvtp")) {
+        return read_pieces(path).map_err(error);
+    }
+    let format = match ext.as_deref() {
+        Some("ply") => Format::Ply,
+        Some("vtu" | "vtp") => Format::Vtu,
+        Some("xyz" | "csv" | "txt") => Format::Text,
+        Some("vtk") => Format::Vtk,
+        Some("bgeo" | "geo") => Format::Bgeo,
+        Some("json") => Format::Json,
+        Some("gz")
+            if path
+                .to_string_lossy()
+                .to_ascii_lowercase()
+                .ends_with(".bgeo.gz") =>
+        {
+            Format::Bgeo
+        }
+        _ => {
+            return Err(error(
+                "particle files must end in .ply, .vtk, .vtu, .vtp, .pvtu, .bgeo, .vdb, .json, .xyz, .csv or .txt"
+                    .into(),
+            ))
+        }
+    };
+    let bytes = std::fs::read(path).map_err(|e| error(e.to_string()))?;
+    parse(&bytes, format).map_err(error)
+}
+
+/// Parses a frame's bytes: positions finite, radii (when given) positive.
+pub fn parse(bytes: &[u8], format: Format) -> Result<Particles, String> {
+    check(match format {
+        Format::Ply => read_ply(bytes)?,
+        Format::Text => read_text(bytes)?,
+        Format::Vtk => read_vtk(bytes)?,
+        Format::Vtu => read_vtu(bytes)?,
+        Format::Bgeo => read_bgeo(bytes)?,
+        Format::Json => read_json(bytes)?,
+    })
+}
+
+/// A gzipped frame inflates to at most this many times its size (float data compresses
+/// 1.2–6×): a bomb reads as truncated instead of filling the memory.
+const INFLATE_LIMIT: u64 = 256;
+
+/// A partio BGEO's points, with the attributes simulators name velocity (`v`, partio's
+/// and Houdini's; SPlisHSPlasH `velocity`), identity (`id`) and radius (`pscale`).
+fn read_bgeo(bytes: &[u8]) -> Result<Particles, String> {
+    let limit = (bytes.len() as u64)
+        .saturating_mul(INFLATE_LIMIT)
+        .max(1 << 20);
+    let points = super::bgeo::parse(bytes, limit).map_err(|e| error_chain(&e))?;
+    let n = points.positions.len();
+    let column =
+        |names: &[&str], components: usize| column(&points.attributes, n, names, components);
+    let ids: Option<Vec<i64>> = column(&["id"], 1).map(|v| v.iter().map(|&i| i as i64).collect());
+    // pysplishsplash 2.19's partio export writes each particle's id into the bits of its x
+    // (y, z and the attributes are right): x cannot be had back.
+    if let Some(ids) = &ids {
+        let x_is_id = points
+            .positions
+            .iter()
+            .zip(ids)
+            .all(|(p, &id)| i64::from(p[0].to_bits()) == id);
+        if n > 1 && x_is_id {
+            return Err("every x holds the particle's id, not a coordinate (SPlisHSPlasH's partio export writes so); export VTK (enableVTKExport) instead".into());
+        }
+    }
+    Ok(Particles {
+        positions: points
+            .positions
+            .iter()
+            .map(|p| Vec3::from_array(*p))
+            .collect(),
+        radii: column(&["pscale", "radius"], 1).map(|v| v.iter().map(|&r| r as f32).collect()),
+        velocities: column(&["v", "velocity", "vel"], 3).map(vectors),
+        ids,
+    })
+}
+
+/// The values of the array called one of `names` with `components` components, when it has
+/// a row for each of the `n` points.
+fn column<'a>(
+    arrays: &'a [super::PointArray],
+    n: usize,
+    names: &[&str],
+    components: usize,
+) -> Option<&'a [f64]> {
+    super::find_array(arrays, names, components)
+        .filter(|a| a.values.len() == n * components)
+        .map(|a| a.values.as_slice())
+}
+
+/// Rows of three as vectors.
+fn vectors(values: &[f64]) -> Vec<Vec3> {
+    values
+        .chunks_exact(3)
+        .map(|v| Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32))
+        .collect()
+}
+
+/// A legacy VTK file's points, with the point data simulators name velocity
+/// (SPlisHSPlasH `velocity`, DualSPHysics `Vel`), identity (`id`, `Idp`) and radius.
+fn read_vtk(bytes: &[u8]) -> Result<Particles, String> {
+    let points = super::vtk::parse(bytes).map_err(|e| e.to_string())?;
+    Ok(from_arrays(&points.positions, &points.arrays))
+}
+
+/// A VTK XML file's points (every piece), with the point data named as in legacy VTK.
+fn read_vtu(bytes: &[u8]) -> Result<Particles, String> {
+    let limit = (bytes.len() as u64)
+        .saturating_mul(INFLATE_LIMIT)
+        .max(1 << 20);
+    let points = super::vtu::parse(bytes, limit).map_err(|e| error_chain(&e))?;
+    Ok(from_arrays(&points.positions, &points.arrays))
+}
+
+/// A parallel `.pvtu`/`.pvtp`: the points of every piece file it lists, in order, with
+/// the attributes every piece has.
+fn read_pieces(path: &Path) -> Result<Particles, String> {
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    let sources = super::vtu::piece_sources(&bytes).map_err(|e| error_chain(&e))?;
+    if sources.is_empty() {
+        return Err("lists no <Piece Source=...> files".into());
+    }
+    let folder = path.parent().unwrap_or(Path::new(""));
+    let mut all = Particles::default();
+    for (k, source) in sources.iter().enumerate() {
+        let piece = folder.join(source);
+        let part = std::fs::read(&piece)
+            .map_err(|e| e.to_string())
+            .and_then(|b| read_vtu(&b))
+            .and_then(check)
+            .map_err(|e| format!("piece {}: {e}", piece.display()))?;
+        if k == 0 {
+            all = part;
+            continue;
+        }
+        fn join<T: Clone>(a: &mut Option<Vec<T>>, b: Option<Vec<T>>) {
+            match (a.as_mut(), b) {
+                (Some(a), Some(b)) => a.extend(b),
+                _ => *a = None,
+            }
+        }
+        all.positions.extend(part.positions);
+        join(&mut all.radii, part.radii);
+        join(&mut all.velocities, part.velocities);
+        join(&mut all.ids, part.ids);
+    }
+    Ok(all)
+}
+
+/// An error with its causes, `error: cause: cause`.
+fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(cause) = source {
+        text = format!("{text}: {cause}");
+        source = cause.source();
+    }
+    text
+}
+
+/// Particles from positions and the point-data arrays simulators name velocity
+/// (SPlisHSPlasH `velocity`, DualSPHysics `Vel`), identity (`id`, `Idp`) and radius.
+fn from_arrays(positions: &[[f64; 3]], arrays: &[super::PointArray]) -> Particles {
+    let n = positions.len();
+    let column = |names: &[&str], components: usize| column(arrays, n, names, components);
+    Particles {
+        positions: positions
+            .iter()
+            .map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32))
+            .collect(),
+        radii: column(&["radius", "pscale"], 1).map(|v| v.iter().map(|&r| r as f32).collect()),
+        velocities: column(&["velocity", "velocities", "vel", "v"], 3).map(vectors),
+        ids: column(&["id", "idp", "ids"], 1).map(|v| v.iter().map(|&i| i as i64).collect()),
+    }
+}
+
+fn check(particles: Particles) -> Result<Particles, String> {
+    if let Some(i) = particles.positions.iter().position(|p| !p.is_finite()) {
+        return Err(format!("particle {i} has a NaN or infinite coordinate"));
+    }
+    if let Some(v) = &particles.velocities {
+        if let Some(i) = v.iter().position(|v| !v.is_finite()) {
+            return Err(format!("particle {i} has a velocity that is not finite"));
+        }
+    }
+    if let Some(radii) = &particles.radii {
+        if let Some(i) = radii.iter().position(|r| !(r.is_finite() && *r > 0.0)) {
+            return Err(format!(
+                "particle {i} has a radius that is not a positive number"
+            ));
+        }
+    }
+    Ok(particles)
+}
+
+#[cfg(feature = "vdb")]
+fn read_vdb(path: &Path) -> Result<Particles, crate::vdb::VdbError> {
+    let points = crate::vdb::read_points(path, None)?;
+    Ok(Particles {
+        positions: points
+            .positions
+            .chunks_exact(3)
+            .map(|p| Vec3::new(p[0], p[1], p[2]))
+            .collect(),
+        radii: points.has_radius.then_some(points.radii),
+        velocities: points.has_velocity.then(|| {
+            points
+                .velocities
+                .chunks_exact(3)
+                .map(|v| Vec3::new(v[0], v[1], v[2]))
+                .collect()
+        }),
+        ids: None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::ply::read_ply;
+    use crate::io::text::read_text;
+
+    #[test]
+    fn csv_headers_name_the_columns_in_any_order() {
+        let p = |text: &str| read_text(text.as_bytes());
+        // Swapped axes and extra columns, read by name.
+        let swapped = p("z,y,x,density\n3,2,1,1000\n6,5,4,999\n").unwrap();
+        assert_eq!(
+            swapped.positions,
+            vec![Vec3::new(1.0, 2.0, 3.0), Vec3::new(4.0, 5.0, 6.0)]
+        );
+        assert_eq!(swapped.radii, None);
+        let ids = p("id,x,y,z,pscale\n7,1,2,3,0.5\n").unwrap();
+        assert_eq!((ids.ids, ids.radii), (Some(vec![7]), Some(vec![0.5])));
+        assert_eq!(ids.positions, vec![Vec3::new(1.0, 2.0, 3.0)]);
+        // ParaView's Save Data CSV.
+        let paraview = p("\"velocity:0\",\"velocity:1\",\"velocity:2\",\"id\",\"Points:0\",\"Points:1\",\"Points:2\"\n0,-0.45,0,12,0.04,0.05,0.06\n").unwrap();
+        assert_eq!(paraview.positions, vec![Vec3::new(0.04, 0.05, 0.06)]);
+        assert_eq!(paraview.velocities, Some(vec![Vec3::new(0.0, -0.45, 0.0)]));
+        assert_eq!(paraview.ids, Some(vec![12]));
+        // DualSPHysics' PartVTK -SaveCsv: semicolons, units.
+        let dual = p("Pos.x [m];Pos.y [m];Pos.z [m];Idp;Vel.x [m/s];Vel.y [m/s];Vel.z [m/s];Rhop [kg/m^3]\n1;2;3;4;0.1;0.2;0.3;1000\n").unwrap();
+        assert_eq!(dual.positions, vec![Vec3::new(1.0, 2.0, 3.0)]);
+        assert_eq!(dual.velocities, Some(vec![Vec3::new(0.1, 0.2, 0.3)]));
+        assert_eq!(dual.ids, Some(vec![4]));
+        // Short names and bracketed indices.
+        let short = p("px py pz vx vy vz\n1 2 3 4 5 6\n").unwrap();
+        assert_eq!(short.velocities, Some(vec![Vec3::new(4.0, 5.0, 6.0)]));
+        let indexed = p("p[0],p[1],p[2]\n1,2,3\n").unwrap();
+        assert_eq!(indexed.positions, vec![Vec3::new(1.0, 2.0, 3.0)]);
+        // No header: x y z [radius] as before.
+        let plain = p("1 2 3 0.5\n4 5 6 0.5\n").unwrap();
+        assert_eq!(plain.radii, Some(vec![0.5, 0.5]));
+        // A header naming no position, a row short of the header: one line each.
+        let e = p("a,b,c\n1,2,3\n").unwrap_err();
+        assert!(e.contains("no x, y and z") && e.contains("a,b,c"), "{e}");
+        let e = p("x,y,z,id\n1,2,3\n").unwrap_err();
+        assert!(e.contains("line 2") && e.contains("4 columns"), "{e}");
+    }
+
+    #[test]
+    fn ply_velocities_are_read_by_either_name_and_must_be_finite() {
+        for names in [
+            ["vx", "vy", "vz"],
+            ["velocity_x", "velocity_y", "velocity_z"],
+        ] {
+            let ply = format!(
+                "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nproperty float {}\nproperty float {}\nproperty float {}\nend_header\n0 0 0 1 2 3\n1 1 1 -4 5 -6\n",
+                names[0], names[1], names[2]
+            );
+            let p = parse(ply.as_bytes(), Format::Ply).unwrap();
+            assert_eq!(
+                p.velocities,
+                Some(vec![Vec3::new(1.0, 2.0, 3.0), Vec3::new(-4.0, 5.0, -6.0)])
+            );
+        }
+        let nan = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty float vx\nproperty float vy\nproperty float vz\nend_header\n0 0 0 nan 0 0\n";
+        let err = parse(nan.as_bytes(), Format::Ply).unwrap_err();
+        assert!(err.contains("velocity"), "{err}");
+        // Without them: none.
+        let plain = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n";
+        assert_eq!(
+            parse(plain.as_bytes(), Format::Ply).unwrap().velocities,
+            None
+        );
+    }
+
+    #[test]
+    fn ascii_and_binary_ply_and_text_agree() {
+        let points = [Vec3::new(0.5, -1.0, 2.0), Vec3::new(3.0, 4.0, -0.25)];
+        let ascii = "ply\nformat ascii 1.0\ncomment test\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nproperty float radius\nend_header\n0.5 -1 2 0.1\n3 4 -0.25 0.2\n";
+        let p = read_ply(ascii.as_bytes()).unwrap();
+        assert_eq!(p.positions, points);
+        assert_eq!(p.radii, Some(vec![0.1, 0.2]));
+
+        let mut binary = b"ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty double x\nproperty double y\nproperty double z\nproperty uchar id\nend_header\n".to_vec();
+        for q in points {
+            for c in q.to_array() {
+                binary.extend_from_slice(&f64::from(c).to_le_bytes());
+            }
+            binary.push(7);
+        }
+        let p = read_ply(&binary).unwrap();
+        assert_eq!(p.positions, points);
+        assert_eq!(p.radii, None);
+
+        let mut big = b"ply\nformat binary_big_endian 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n".to_vec();
+        for q in points {
+            for c in q.to_array() {
+                big.extend_from_slice(&c.to_be_bytes());
+            }
+        }
+        assert_eq!(read_ply(&big).unwrap().positions, points);
+
+        let csv = "x,y,z\n0.5,-1,2\n3,4,-0.25\n";
+        assert_eq!(read_text(csv.as_bytes()).unwrap().positions, points);
+    }
+
+    #[test]
+    fn broken_files_are_named_errors() {
+        let truncated = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n\0\0\0\0";
+        assert!(read_ply(truncated)
+            .unwrap_err()
+            .contains("3 vertices announced"));
+        let bad_type =
+            "ply\nformat ascii 1.0\nelement vertex 1\nproperty quaternion x\nend_header\n";
+        assert!(read_ply(bad_type.as_bytes())
+            .unwrap_err()
+            .contains("unknown type"));
+        let twice = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty float x\nend_header\n1 2 3 4\n";
+        let e = read_ply(twice.as_bytes()).unwrap_err();
+        assert!(e.contains("property x appears twice"), "{e}");
+        let few = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n";
+        assert!(read_ply(few.as_bytes())
+            .unwrap_err()
+            .contains("2 vertices announced, 1 found"));
+        assert!(read_ply(b"hello").unwrap_err().contains("not a PLY file"));
+        assert!(read_text(b"1 2\n").unwrap_err().contains("expected x y z"));
+    }
+
+    /// Found by cargo fuzz: a header announcing trillions of vertices made the reader ask
+    /// for terabytes before finding the file short; a count whose byte size overflows
+    /// must not wrap either.
+    #[test]
+    fn absurd_vertex_counts_are_errors_not_allocations() {
+        for (format, count) in [
+            ("binary_big_endian", "4666666666666"),
+            ("binary_little_endian", "18446744073709551615"),
+            ("ascii", "4666666666666"),
+        ] {
+            let header = format!(
+                "ply\nformat {format} 1.0\nelement vertex {count}\nproperty double x\n\
+                 property double y\nproperty uint16 z\nend_header\n"
+            );
+            let mut bytes = header.into_bytes();
+            if format == "ascii" {
+                bytes.extend_from_slice(b"1 2 3\n");
+            } else {
+                bytes.extend_from_slice(&[0x3f; 40]);
+            }
+            let err = parse(&bytes, Format::Ply).unwrap_err();
+            assert!(err.contains("vertices announced"), "{format}: {err}");
+        }
+    }
+}

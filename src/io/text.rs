@@ -1,0 +1,184 @@
+//! Particles as text: `x y z [radius]` per line, or a CSV whose header names its
+//! columns (ParaView's, DualSPHysics', and the usual spellings).
+
+use glam::Vec3;
+
+use crate::particles::Particles;
+
+/// Text particles: `x y z [radius]` per line (spaces, commas or semicolons), or a CSV
+/// whose header names its columns in any order — `x y z`, ParaView's `Points:0`,
+/// DualSPHysics' `Pos.x [m]`, `position_x`, …; radius (`radius`, `pscale`), velocity
+/// (`vx`, `velocity:0`, `Vel.x`, `v_x`, …) and id (`id`, `Idp`) read by name, other
+/// columns ignored.
+pub(crate) fn read_text(bytes: &[u8]) -> Result<Particles, String> {
+    let text = std::str::from_utf8(bytes).map_err(|_| "not a text file".to_string())?;
+    // Commas, semicolons or tabs when the line has any (names may hold spaces:
+    // `Pos.x [m]`), else spaces.
+    let split = |line: &str| -> Vec<String> {
+        let fields: Vec<&str> = if line.contains([',', ';', '\t']) {
+            line.split([',', ';', '\t']).collect()
+        } else {
+            line.split_whitespace().collect()
+        };
+        fields
+            .into_iter()
+            .map(|f| f.trim().to_string())
+            .filter(|f| !f.is_empty())
+            .collect()
+    };
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(n, l)| (n + 1, l.trim()))
+        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+    let mut first = lines.next();
+    // A header: its first line is not all numbers.
+    let columns = match first {
+        Some((_, line)) if split(line).iter().any(|f| f.parse::<f64>().is_err()) => {
+            let names = split(line);
+            first = None;
+            Some(
+                Columns::from_header(&names)
+                    .ok_or_else(|| format!("the header names no x, y and z columns: '{line}'"))?,
+            )
+        }
+        _ => None,
+    };
+    let mut out = Particles::default();
+    let (mut radii, mut velocities, mut ids) = (Vec::new(), Vec::new(), Vec::new());
+    for (n, line) in first.into_iter().chain(lines) {
+        let fields = split(line);
+        let numbers: Vec<f64> = fields
+            .iter()
+            .map(|f| f.trim_matches('"').parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| format!("line {n}: not numbers: '{line}'"))?;
+        let at = |k: usize| numbers[k] as f32;
+        match &columns {
+            Some(c) => {
+                if numbers.len() < c.width {
+                    return Err(format!(
+                        "line {n}: {} numbers, the header names {} columns",
+                        numbers.len(),
+                        c.width
+                    ));
+                }
+                out.positions.push(Vec3::new(at(c.x[0]), at(c.x[1]), at(c.x[2])));
+                if let Some(k) = c.radius {
+                    radii.push(at(k));
+                }
+                if let Some(v) = c.velocity {
+                    velocities.push(Vec3::new(at(v[0]), at(v[1]), at(v[2])));
+                }
+                if let Some(k) = c.id {
+                    ids.push(numbers[k] as i64);
+                }
+            }
+            None => match numbers.len() {
+                3 => out.positions.push(Vec3::new(at(0), at(1), at(2))),
+                4 => {
+                    out.positions.push(Vec3::new(at(0), at(1), at(2)));
+                    radii.push(at(3));
+                }
+                k => {
+                    return Err(format!(
+                        "line {n}: {k} numbers, expected x y z [radius] (or a header naming the columns)"
+                    ))
+                }
+            },
+        }
+    }
+    if !radii.is_empty() && radii.len() != out.positions.len() {
+        return Err("some lines have a radius and others not".into());
+    }
+    out.radii = (!radii.is_empty()).then_some(radii);
+    out.velocities = (!velocities.is_empty()).then_some(velocities);
+    out.ids = (!ids.is_empty()).then_some(ids);
+    Ok(out)
+}
+
+/// Where a CSV header puts the columns read.
+#[derive(Debug, PartialEq)]
+struct Columns {
+    x: [usize; 3],
+    radius: Option<usize>,
+    velocity: Option<[usize; 3]>,
+    id: Option<usize>,
+    /// Columns a row must have: one past the last read.
+    width: usize,
+}
+
+impl Columns {
+    fn from_header(names: &[String]) -> Option<Columns> {
+        // Each name as (base, component): `Points:0` → ("points", 0), `Pos.x [m]` →
+        // ("pos", 0), `vx` → ("v", 0), `x` → ("", 0), `radius` → ("radius", none).
+        let parsed: Vec<(String, Option<usize>)> = names.iter().map(|n| name_parts(n)).collect();
+        let find = |bases: &[&str], component: Option<usize>| {
+            parsed
+                .iter()
+                .position(|(b, c)| *c == component && bases.contains(&b.as_str()))
+        };
+        let vector = |bases: &[&str]| -> Option<[usize; 3]> {
+            Some([
+                find(bases, Some(0))?,
+                find(bases, Some(1))?,
+                find(bases, Some(2))?,
+            ])
+        };
+        let x = vector(&["", "p", "pos", "position", "points", "point", "coords"])?;
+        let radius = find(&["radius", "pscale", "r"], None);
+        let velocity = vector(&["v", "vel", "velocity", "velocities"]);
+        let id = find(&["id", "idp", "pid", "ids"], None);
+        let width = x
+            .iter()
+            .chain(velocity.iter().flatten())
+            .chain(radius.iter())
+            .chain(id.iter())
+            .max()
+            .map_or(0, |&k| k + 1);
+        Some(Columns {
+            x,
+            radius,
+            velocity,
+            id,
+            width,
+        })
+    }
+}
+
+/// A column name's base and component, lowercased, quotes and units (`[m]`, `(m/s)`)
+/// dropped.
+fn name_parts(name: &str) -> (String, Option<usize>) {
+    let mut n = name.trim().trim_matches('"').to_ascii_lowercase();
+    if let Some(cut) = n.find(['[', '(']).filter(|&k| k > 0) {
+        // `p[0]` keeps its index; `Pos.x [m]` loses its unit.
+        let inner = n[cut + 1..].trim_end_matches([']', ')']);
+        if let Ok(k) = inner.parse::<usize>() {
+            return (n[..cut].trim().to_string(), (k < 3).then_some(k));
+        }
+        n.truncate(cut);
+    }
+    let n = n.trim();
+    let axis = |c: &str| match c {
+        "x" | "0" => Some(0),
+        "y" | "1" => Some(1),
+        "z" | "2" => Some(2),
+        _ => None,
+    };
+    for sep in [':', '.', '_'] {
+        if let Some((base, c)) = n.rsplit_once(sep) {
+            if let Some(k) = axis(c) {
+                return (base.to_string(), Some(k));
+            }
+        }
+    }
+    // `x`, `vx`, `px`: a one-letter base and an axis letter.
+    match n.len() {
+        1 if axis(n).is_some() && n.chars().all(char::is_alphabetic) => (String::new(), axis(n)),
+        2 => match axis(&n[1..]).filter(|_| n[1..].chars().all(char::is_alphabetic)) {
+            Some(k) => (n[..1].to_string(), Some(k)),
+            None => (n.to_string(), None),
+        },
+        _ => (n.to_string(), None),
+    }
+}

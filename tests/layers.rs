@@ -1,0 +1,171 @@
+//! The library's layers, arrows pointing down only (README, "Layout"): the core — grid,
+//! skin, flow, targets, polygonizer, meshes, particles — imports nothing from the file
+//! formats, the frame loop or the measurements above it, and no two modules import each
+//! other, directly or around a circle. Read from the sources: a `crate::module` path
+//! outside comments and test modules is an import.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::Path;
+
+/// The core: what a Python wheel or another program links without OpenVDB or files.
+const CORE: &[&str] = &[
+    "budget",
+    "flow",
+    "grid",
+    "mesh",
+    "particles",
+    "polygonize",
+    "render",
+    "skin",
+    "stencil",
+    "target",
+    "volume",
+];
+
+/// The modules above the core.
+const ABOVE_CORE: &[&str] = &["frames", "io", "measure", "sequence", "validate", "vdb"];
+
+/// The code of a source file without comments, string contents or `#[cfg(test)]` items.
+fn code(text: &str) -> String {
+    let mut out = String::new();
+    let mut skip_depth: Option<i32> = None;
+    let mut depth = 0i32;
+    let mut pending_test = false;
+    for line in text.lines() {
+        let line = match line.find("//") {
+            Some(k) => &line[..k],
+            None => line,
+        };
+        let trimmed = line.trim();
+        if trimmed.starts_with("#[cfg(test)]") {
+            pending_test = true;
+            continue;
+        }
+        if pending_test && !trimmed.is_empty() {
+            pending_test = false;
+            if trimmed.ends_with(';') {
+                continue; // `#[cfg(test)] use …;`
+            }
+            skip_depth = Some(depth);
+        }
+        for c in line.chars() {
+            match c {
+                '{' => depth += 1,
+                '}' => depth -= 1,
+                _ => {}
+            }
+        }
+        if let Some(d) = skip_depth {
+            if depth <= d && line.contains('}') {
+                skip_depth = None;
+            }
+            continue;
+        }
+        out.push_str(line);
+        out.push('\n');
+    }
+    out
+}
+
+/// Each top-level module and the other top-level modules its code names.
+fn imports() -> BTreeMap<String, BTreeSet<String>> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    let mut stack = vec![src.clone()];
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+                continue;
+            }
+            if path.extension().and_then(|e| e.to_str()) != Some("rs") {
+                continue;
+            }
+            let relative = path.strip_prefix(&src).unwrap();
+            let first = relative.components().next().unwrap();
+            let module = first
+                .as_os_str()
+                .to_string_lossy()
+                .trim_end_matches(".rs")
+                .to_string();
+            if matches!(module.as_str(), "lib" | "main" | "cli") {
+                continue; // the root's error enum names every stage; the binary is on top
+            }
+            let text = code(&std::fs::read_to_string(&path).unwrap());
+            let names = graph.entry(module.clone()).or_default();
+            for (k, _) in text.match_indices("crate::") {
+                let rest = &text[k + "crate::".len()..];
+                let name: String = rest
+                    .chars()
+                    .take_while(|c| c.is_alphanumeric() || *c == '_')
+                    .collect();
+                if !name.is_empty() && name != module {
+                    names.insert(name);
+                }
+            }
+        }
+    }
+    graph
+}
+
+#[test]
+fn the_core_imports_nothing_above_it() {
+    let graph = imports();
+    for module in CORE {
+        let names = graph
+            .get(*module)
+            .unwrap_or_else(|| panic!("no module {module}"));
+        let above: Vec<&String> = names
+            .iter()
+            .filter(|n| ABOVE_CORE.contains(&n.as_str()))
+            .collect();
+        assert!(above.is_empty(), "{module} imports {above:?}");
+    }
+}
+
+#[test]
+fn no_two_modules_import_each_other() {
+    let graph = imports();
+    // Depth-first search for a circle, reporting its path.
+    fn visit(
+        node: &str,
+        graph: &BTreeMap<String, BTreeSet<String>>,
+        path: &mut Vec<String>,
+        done: &mut BTreeSet<String>,
+    ) {
+        if let Some(k) = path.iter().position(|n| n == node) {
+            panic!("a circle: {} -> {node}", path[k..].join(" -> "));
+        }
+        if done.contains(node) {
+            return;
+        }
+        path.push(node.to_string());
+        for next in graph.get(node).into_iter().flatten() {
+            visit(next, graph, path, done);
+        }
+        path.pop();
+        done.insert(node.to_string());
+    }
+    let mut done = BTreeSet::new();
+    for node in graph.keys() {
+        visit(node, &graph, &mut Vec::new(), &mut done);
+    }
+}
+
+#[test]
+fn the_reader_sees_imports_and_skips_comments_and_tests() {
+    let text = "use crate::grid::Aabb;\n/// [`crate::io`]\nfn f() {} // crate::frames\n\
+                #[cfg(test)]\nmod tests {\n    use crate::vdb;\n    fn g() { if x { } }\n}\n\
+                use crate::flow::Flow;\n";
+    let kept = code(text);
+    assert!(
+        kept.contains("crate::grid") && kept.contains("crate::flow"),
+        "{kept}"
+    );
+    assert!(
+        !kept.contains("crate::io") && !kept.contains("crate::frames"),
+        "{kept}"
+    );
+    assert!(!kept.contains("crate::vdb"), "{kept}");
+}
