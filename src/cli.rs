@@ -159,7 +159,9 @@ pub fn run() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("activeskin: error: {e:#}");
+            // Each cause once: a library error's message already holds its causes.
+            let line = activeskin::io::error_chain(e.as_ref());
+            eprintln!("activeskin: error: {line}");
             let usage = e.downcast_ref::<Usage>().is_some()
                 || matches!(
                     e.downcast_ref::<activeskin::frames::FrameError>(),

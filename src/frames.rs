@@ -55,6 +55,13 @@ pub enum FrameError {
     /// An input that cannot be used, or an output that cannot be written.
     #[error("{0}")]
     Data(String),
+    /// A file that cannot be written.
+    #[error("{}: {source}", path.display())]
+    Write {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
     /// A request that cannot be met whatever the files hold (a command-line mistake).
     #[error("{0}")]
     Usage(String),

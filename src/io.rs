@@ -38,6 +38,21 @@ pub fn find_array<'a>(
 
 use std::path::{Path, PathBuf};
 
+/// An error and its causes on one line, `error: cause: cause` (a cause whose text is
+/// already there is not repeated).
+pub fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(cause) = source {
+        let more = cause.to_string();
+        if !text.contains(&more) {
+            text = format!("{text}: {more}");
+        }
+        source = cause.source();
+    }
+    text
+}
+
 /// The temporary name a file is written under before being renamed to `path`: hidden,
 /// in the same folder (so the rename is atomic), unique to this process.
 pub fn temporary_path(path: &Path) -> PathBuf {
@@ -78,16 +93,18 @@ pub fn not_a_file(path: &Path) -> Option<String> {
 /// temporary file is removed and `path` is left as it was. A `path` that exists and is
 /// not a regular file — `/dev/null`, a named pipe, a device — is written in place: renamed
 /// over, `--stats /dev/null` run as root would have replaced the device with a file.
-pub fn write_atomically<F>(path: &Path, write: F) -> Result<(), String>
+/// The writer's own error type is kept; the rename's failure becomes one of it.
+pub fn write_atomically<E, F>(path: &Path, write: F) -> Result<(), E>
 where
-    F: FnOnce(&Path) -> Result<(), String>,
+    E: From<std::io::Error>,
+    F: FnOnce(&Path) -> Result<(), E>,
 {
     if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
         return write(path);
     }
     let tmp = temporary_path(path);
     let _registered = Writing::register(&tmp);
-    let result = write(&tmp).and_then(|()| std::fs::rename(&tmp, path).map_err(|e| e.to_string()));
+    let result = write(&tmp).and_then(|()| std::fs::rename(&tmp, path).map_err(E::from));
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
@@ -205,17 +222,14 @@ mod tests {
             let fifo = fifo.clone();
             std::thread::spawn(move || std::fs::read(fifo).unwrap())
         };
-        write_atomically(&fifo, |p| {
-            std::fs::write(p, b"frame 1").map_err(|e| e.to_string())
-        })
-        .unwrap();
+        write_atomically(&fifo, |p| std::fs::write(p, b"frame 1")).unwrap();
         assert_eq!(reader.join().unwrap(), b"frame 1");
         assert!(std::fs::metadata(&fifo).unwrap().file_type().is_fifo());
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
         // /dev/null itself, when there is one: still a character device afterwards.
         let null = Path::new("/dev/null");
         if std::fs::metadata(null).is_ok_and(|m| m.file_type().is_char_device()) {
-            write_atomically(null, |p| std::fs::write(p, b"x").map_err(|e| e.to_string())).unwrap();
+            write_atomically(null, |p| std::fs::write(p, b"x")).unwrap();
             assert!(std::fs::metadata(null)
                 .unwrap()
                 .file_type()
@@ -231,10 +245,10 @@ mod tests {
         let path = dir.path().join("frame.0001.vdb");
         std::fs::write(&path, b"the earlier, whole frame").unwrap();
         let result = write_atomically(&path, |tmp| {
-            std::fs::write(tmp, b"half a fr").map_err(|e| e.to_string())?;
-            Err("No space left on device (os error 28)".into())
+            std::fs::write(tmp, b"half a fr")?;
+            Err(std::io::Error::from_raw_os_error(28))
         });
-        assert_eq!(result.unwrap_err(), "No space left on device (os error 28)");
+        assert_eq!(result.unwrap_err().raw_os_error(), Some(28));
         assert_eq!(std::fs::read(&path).unwrap(), b"the earlier, whole frame");
         let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
         assert_eq!(names.len(), 1, "a temporary file was left");

@@ -338,3 +338,88 @@ fn damaged_files_never_panic() {
         }
     }
 }
+
+/// The same particles in every format give the same skin, byte for byte: SPlisHSPlasH's
+/// VTK frames; the PLY they convert to ([`activeskin::io::ply::write_particles`]); its
+/// own partio BGEO of the same frames (gzipped behind a plain `.bgeo`, as it writes them)
+/// with each x put back where pysplishsplash wrote the id's bits; and for frame 2,
+/// ParaView's VTK XML (appended raw, zlib) and meshio's.
+#[cfg(feature = "vdb")]
+#[test]
+fn every_format_gives_the_same_meshes() {
+    use std::io::{Read, Write};
+    let dir = common::scratch();
+    for folder in ["vtk", "ply", "bgeo", "vtu", "ply2", "meshio"] {
+        std::fs::create_dir_all(dir.path().join(folder)).unwrap();
+    }
+    for f in 1..=3 {
+        let name = format!("ParticleData_Fluid_{f}");
+        let vtk_path = data(&format!("sph/vtk/{name}.vtk"));
+        std::fs::copy(&vtk_path, dir.path().join(format!("vtk/{name}.vtk"))).unwrap();
+        let vtk = read(Path::new(&vtk_path)).unwrap();
+        let ply = dir.path().join(format!("ply/{name}.ply"));
+        activeskin::io::ply::write_particles(&ply, &vtk).unwrap();
+        assert_eq!(read(&ply).unwrap(), vtk, "the PLY reads back as written");
+        if f == 2 {
+            let ply2 = dir.path().join(format!("ply2/{name}.ply"));
+            std::fs::copy(&ply, ply2).unwrap();
+            for (from, to) in [("appended_raw_zlib.vtu", "vtu"), ("meshio.vtu", "meshio")] {
+                let target = dir.path().join(format!("{to}/{name}.vtu"));
+                std::fs::copy(data(&format!("sph/vtu/{from}")), target).unwrap();
+            }
+        }
+        // The BGEO, x put back: each point's record holds x (the id's bits), y, z, big
+        // endian, in the VTK's order.
+        let gz = std::fs::read(data(&format!("sph/bgeo/{name}.bgeo"))).unwrap();
+        let mut raw = Vec::new();
+        flate2::read::GzDecoder::new(&gz[..])
+            .read_to_end(&mut raw)
+            .unwrap();
+        let ids = vtk.ids.as_ref().unwrap();
+        let mut at = 0;
+        for (p, &id) in vtk.positions.iter().zip(ids) {
+            let mut record = (id as u32).to_be_bytes().to_vec();
+            record.extend(p.y.to_be_bytes());
+            record.extend(p.z.to_be_bytes());
+            let k = at + raw[at..].windows(12).position(|w| w == record).unwrap();
+            raw[k..k + 4].copy_from_slice(&p.x.to_be_bytes());
+            at = k + 12;
+        }
+        let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        gz.write_all(&raw).unwrap();
+        let bgeo = dir.path().join(format!("bgeo/{name}.bgeo"));
+        std::fs::write(&bgeo, gz.finish().unwrap()).unwrap();
+        let back = read(&bgeo).unwrap();
+        assert_eq!(back.positions, vtk.positions);
+        assert_eq!(back.velocities, vtk.velocities);
+        assert_eq!(back.ids, vtk.ids);
+    }
+    let meshes = |folder: &str, ext: &str, frames: std::ops::RangeInclusive<i64>| {
+        let out = dir.path().join(format!("{folder}_mesh"));
+        let pattern = dir
+            .path()
+            .join(format!("{folder}/ParticleData_Fluid_#.{ext}"));
+        let mesh = out.join("s.####.ply");
+        let result = common::activeskin(&[
+            "particles",
+            "--particles",
+            pattern.to_str().unwrap(),
+            "--radius",
+            "0.01",
+            "--mesh",
+            mesh.to_str().unwrap(),
+            "-q",
+        ]);
+        common::assert_ok(&result);
+        frames
+            .map(|f| std::fs::read(out.join(format!("s.{f:04}.ply"))).unwrap())
+            .collect::<Vec<_>>()
+    };
+    let vtk = meshes("vtk", "vtk", 1..=3);
+    assert!(vtk.iter().all(|m| m.len() > 1000));
+    assert!(meshes("ply", "ply", 1..=3) == vtk, "PLY");
+    assert!(meshes("bgeo", "bgeo", 1..=3) == vtk, "BGEO");
+    let one = meshes("ply2", "ply", 2..=2);
+    assert!(meshes("vtu", "vtu", 2..=2) == one, "VTU (VTK's writer)");
+    assert!(meshes("meshio", "vtu", 2..=2) == one, "VTU (meshio)");
+}

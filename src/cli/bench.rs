@@ -1,6 +1,7 @@
 //! `activeskin bench [--json]`: ours and OpenVDB in one process, on the same input, as
 //! ratios (these machines are too noisy for absolute times to compare across runs).
 
+mod formats;
 mod particles;
 mod sph;
 
@@ -63,6 +64,11 @@ pub struct BenchArgs {
     /// The splashsurf binary to race (default: on the PATH, or in ~/.cache/activeskin).
     #[arg(long, requires = "particles")]
     splashsurf: Option<std::path::PathBuf>,
+    /// Only the time to read a 1 M-particle frame in every particle format (written once
+    /// by data/formats/write_frames.py, pip vtk and numpy, into ~/.cache/activeskin/formats
+    /// or ACTIVESKIN_FORMATS_CACHE), against our PLY reader.
+    #[arg(long, conflicts_with = "particles")]
+    formats: bool,
     /// Seconds each side of the morph-to-accuracy race may run before it is called.
     #[arg(long, default_value_t = 30.0)]
     race_cap: f64,
@@ -136,7 +142,9 @@ fn our_step_in_flow(voxels: f32, steps: usize) -> (f64, f64) {
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let mut report = serde_json::Map::new();
     let mut lines = Vec::new();
-    if !args.particles_only {
+    if args.formats {
+        formats::run(&mut lines, &mut report)?;
+    } else if !args.particles_only {
         solver_races(args, &mut lines, &mut report)?;
     }
     if args.particles {

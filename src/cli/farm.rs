@@ -92,10 +92,8 @@ pub fn run(args: &FarmArgs) -> anyhow::Result<()> {
     }
     std::fs::create_dir_all(&args.logs)
         .with_context(|| format!("{}: cannot create the log folder", args.logs.display()))?;
-    activeskin::io::write_atomically(&args.script, |tmp| {
-        std::fs::write(tmp, &script).map_err(|e| e.to_string())
-    })
-    .map_err(|e| anyhow::anyhow!("{}: {e}", args.script.display()))?;
+    activeskin::io::write_atomically(&args.script, |tmp| std::fs::write(tmp, &script))
+        .with_context(|| format!("{}", args.script.display()))?;
     let submitted = Process::new("sbatch")
         .arg("--parsable")
         .arg(&args.script)

@@ -396,11 +396,12 @@ fn remove_stale_temporaries(pattern: &FramePattern, frames: std::ops::RangeInclu
 
 fn write_file(path: &Path, bytes: &[u8]) -> Result<(), FrameError> {
     crate::io::write_atomically(path, |tmp| {
-        std::fs::File::create(tmp)
-            .and_then(|mut f| f.write_all(bytes))
-            .map_err(|e| e.to_string())
+        std::fs::File::create(tmp).and_then(|mut f| f.write_all(bytes))
     })
-    .map_err(|m| FrameError::Data(format!("{}: {m}", path.display())))
+    .map_err(|source| FrameError::Write {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 /// A usage error unless `pattern`'s files end in one of `extensions`.

@@ -5,6 +5,8 @@
 
 use std::io::Read;
 
+use rayon::prelude::*;
+
 use super::PointArray;
 
 /// A BGEO file that cannot be read as points.
@@ -107,31 +109,48 @@ pub fn parse(bytes: &[u8], limit: u64) -> Result<BgeoPoints, BgeoError> {
             .map(|(name, components, _)| PointArray {
                 name: name.clone(),
                 components: *components,
-                values: Vec::with_capacity(points * components),
+                values: vec![0.0; points * components],
             })
             .collect(),
     };
-    for _ in 0..points {
-        let p = [
-            r.f32("the points")?,
-            r.f32("the points")?,
-            r.f32("the points")?,
-        ];
-        let w = r.f32("the points")?;
-        // Homogeneous, as Houdini's points are; partio writes w = 1.
-        out.positions.push(if w != 0.0 && w != 1.0 {
-            p.map(|c| c / w)
-        } else {
-            p
-        });
-        for (attribute, (_, components, kind)) in out.attributes.iter_mut().zip(&layout) {
-            for _ in 0..*components {
-                attribute.values.push(match kind {
-                    Kind::Float => f64::from(r.f32("the points")?),
-                    Kind::Int => f64::from(r.i32("the points")?),
-                });
+    // Fixed-size records, big endian: P as x y z w, then each attribute's components.
+    // Checked whole once, then read in parallel.
+    let record = 16 + layout.iter().map(|(_, c, _)| 4 * c).sum::<usize>();
+    let body = r.take(
+        points
+            .checked_mul(record)
+            .ok_or(BgeoError::Truncated("the points"))?,
+        "the points",
+    )?;
+    let word = |b: &[u8], k: usize| [b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]];
+    out.positions = body
+        .par_chunks_exact(record)
+        .map(|b| {
+            let p = [0, 1, 2].map(|k| f32::from_be_bytes(word(b, k)));
+            let w = f32::from_be_bytes(word(b, 3));
+            // Homogeneous, as Houdini's points are; partio writes w = 1.
+            if w != 0.0 && w != 1.0 {
+                p.map(|c| c / w)
+            } else {
+                p
             }
-        }
+        })
+        .collect();
+    let mut first = 4;
+    for (attribute, &(_, components, kind)) in out.attributes.iter_mut().zip(&layout) {
+        attribute
+            .values
+            .par_chunks_exact_mut(components.max(1))
+            .zip(body.par_chunks_exact(record))
+            .for_each(|(values, b)| {
+                for (v, k) in values.iter_mut().zip(first..) {
+                    *v = match kind {
+                        Kind::Float => f64::from(f32::from_be_bytes(word(b, k))),
+                        Kind::Int => f64::from(i32::from_be_bytes(word(b, k))),
+                    };
+                }
+            });
+        first += components;
     }
     Ok(out)
 }
@@ -154,9 +173,6 @@ impl<'a> Cursor<'a> {
     }
     fn i32(&mut self, what: &'static str) -> Result<i32, BgeoError> {
         Ok(i32::from_be_bytes(self.take(4, what)?.try_into().unwrap()))
-    }
-    fn f32(&mut self, what: &'static str) -> Result<f32, BgeoError> {
-        Ok(f32::from_be_bytes(self.take(4, what)?.try_into().unwrap()))
     }
 }
 

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use crate::render::Render;
 
-pub fn write(image: &Render, path: &Path) -> Result<(), String> {
+pub fn write(image: &Render, path: &Path) -> Result<(), exr::error::Error> {
     use exr::prelude::*;
     let flat = |f: &dyn Fn(usize) -> f32| -> FlatSamples {
         FlatSamples::F32((0..image.rgba.len()).map(f).collect())
@@ -32,8 +32,5 @@ pub fn write(image: &Render, path: &Path) -> Result<(), String> {
         },
         channels,
     );
-    Image::from_layer(layer)
-        .write()
-        .to_file(path)
-        .map_err(|e| e.to_string())
+    Image::from_layer(layer).write().to_file(path)
 }

@@ -5,12 +5,26 @@ use std::path::Path;
 
 use crate::render::Render;
 
-/// A surface could not be rendered or written.
+/// A render that could not be written: the file, and the cause.
 #[derive(Debug, thiserror::Error)]
-#[error("{path}: {message}")]
+#[error("{}: {source}", path.display())]
 pub struct RenderError {
-    pub path: String,
-    pub message: String,
+    pub path: std::path::PathBuf,
+    #[source]
+    pub source: ImageFault,
+}
+
+/// What went wrong writing an image.
+#[derive(Debug, thiserror::Error)]
+pub enum ImageFault {
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    #[error(transparent)]
+    Exr(#[from] exr::error::Error),
+    #[error(transparent)]
+    Png(#[from] png::EncodingError),
+    #[error("renders must end in .exr or .png")]
+    Extension,
 }
 
 /// Writes by extension: `.exr` (RGBA, Z, N.X/N.Y/N.Z) or `.png` (beauty over grey).
@@ -19,14 +33,14 @@ pub fn write(render: &Render, path: &Path) -> Result<(), RenderError> {
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    let error = |message: String| RenderError {
-        path: path.display().to_string(),
-        message,
+    let error = |source| RenderError {
+        path: path.to_path_buf(),
+        source,
     };
-    let write: fn(&Render, &Path) -> Result<(), String> = match ext.as_deref() {
-        Some("exr") => super::exr::write,
-        Some("png") => super::png::write,
-        _ => return Err(error("renders must end in .exr or .png".into())),
+    let write: fn(&Render, &Path) -> Result<(), ImageFault> = match ext.as_deref() {
+        Some("exr") => |image, path| Ok(super::exr::write(image, path)?),
+        Some("png") => |image, path| Ok(super::png::write(image, path)?),
+        _ => return Err(error(ImageFault::Extension)),
     };
     super::write_atomically(path, |tmp| write(render, tmp)).map_err(error)
 }

@@ -8,12 +8,34 @@ use rayon::prelude::*;
 
 use crate::mesh::Mesh;
 
-/// Why a mesh could not be written or read.
+/// Why a mesh file could not be written or read: the file, and the cause.
 #[derive(Debug, thiserror::Error)]
-#[error("{}: {message}", path.display())]
+#[error("{}: {source}", path.display())]
 pub struct MeshError {
     pub path: std::path::PathBuf,
-    pub message: String,
+    #[source]
+    pub source: MeshFault,
+}
+
+/// What went wrong with a mesh file.
+#[derive(Debug, thiserror::Error)]
+pub enum MeshFault {
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    #[error("mesh files must end in .obj or .ply")]
+    Extension,
+    /// An OBJ record that cannot be read (1-based line).
+    #[error("line {line}: cannot read '{text}'")]
+    Record { line: usize, text: String },
+}
+
+impl MeshError {
+    pub(crate) fn new(path: &Path, source: impl Into<MeshFault>) -> Self {
+        MeshError {
+            path: path.to_path_buf(),
+            source: source.into(),
+        }
+    }
 }
 
 /// OBJ or PLY by the file's extension.
@@ -25,10 +47,7 @@ pub fn write(mesh: &Mesh, path: &Path) -> Result<(), MeshError> {
     {
         Some(e) if e == "obj" => super::obj::write(mesh, path),
         Some(e) if e == "ply" => super::ply::write_mesh(mesh, path),
-        _ => Err(MeshError {
-            path: path.into(),
-            message: "mesh files must end in .obj or .ply".into(),
-        }),
+        _ => Err(MeshError::new(path, MeshFault::Extension)),
     }
 }
 
@@ -37,17 +56,11 @@ pub(crate) fn write_with(
     body: impl FnOnce(&mut (dyn Write + Send)) -> std::io::Result<()>,
 ) -> Result<(), MeshError> {
     super::write_atomically(path, |tmp| {
-        let file = super::EagerWriteback::create(tmp).map_err(|e| e.to_string())?;
-        let mut w = std::io::BufWriter::new(file);
-        body(&mut w)
-            .and_then(|()| w.flush())
-            .map_err(|e| e.to_string())?;
-        w.get_ref().sync().map_err(|e| e.to_string())
+        let mut w = std::io::BufWriter::new(super::EagerWriteback::create(tmp)?);
+        body(&mut w).and_then(|()| w.flush())?;
+        w.get_ref().sync()
     })
-    .map_err(|message| MeshError {
-        path: path.into(),
-        message,
-    })
+    .map_err(|e| MeshError::new(path, e))
 }
 
 /// Writes `items` as fixed-size binary records of `size` bytes, each laid out by `record`

@@ -6,7 +6,7 @@ use std::path::Path;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::mesh::{write_with, MeshError};
+use super::mesh::{write_with, MeshError, MeshFault};
 use crate::mesh::Mesh;
 
 /// Wavefront OBJ with normals, through a temporary file renamed into place. The text
@@ -46,14 +46,16 @@ pub fn write(mesh: &Mesh, path: &Path) -> Result<(), MeshError> {
 /// A Wavefront OBJ's vertices and faces (other records skipped; polygons fanned into
 /// triangles), as other tools write them; no normals.
 pub fn read(path: &Path) -> Result<Mesh, MeshError> {
-    let error = |message: String| MeshError {
-        path: path.to_path_buf(),
-        message,
-    };
-    let text = std::fs::read_to_string(path).map_err(|e| error(e.to_string()))?;
+    let text = std::fs::read_to_string(path).map_err(|e| MeshError::new(path, e))?;
     let mut mesh = Mesh::default();
     for (number, line) in text.lines().enumerate() {
-        let bad = || error(format!("line {}: cannot read '{line}'", number + 1));
+        let bad = || {
+            let record = MeshFault::Record {
+                line: number + 1,
+                text: line.to_string(),
+            };
+            MeshError::new(path, record)
+        };
         let mut words = line.split_whitespace();
         match words.next() {
             Some("v") => {

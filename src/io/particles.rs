@@ -13,12 +13,70 @@ use super::ply::read_ply;
 use super::text::read_text;
 use crate::particles::Particles;
 
-/// A particle frame that cannot be read.
+/// A particle file that cannot be read or written: the file, and the cause (its whole
+/// chain in the message, one line).
 #[derive(Debug, thiserror::Error)]
-#[error("{}: {message}", path.display())]
+#[error("{}: {}", path.display(), super::error_chain(source))]
 pub struct ParticleError {
     pub path: PathBuf,
-    pub message: String,
+    #[source]
+    pub source: ParticleFault,
+}
+
+impl ParticleError {
+    pub(crate) fn new(path: &Path, source: impl Into<ParticleFault>) -> Self {
+        ParticleError {
+            path: path.to_path_buf(),
+            source: source.into(),
+        }
+    }
+}
+
+/// What is wrong with a particle file.
+#[derive(Debug, thiserror::Error)]
+pub enum ParticleFault {
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    /// A directory, a pipe, a device ([`super::not_a_file`]).
+    #[error("{0}")]
+    NotAFile(String),
+    #[error("particle files must end in .ply, .vtk, .vtu, .vtp, .pvtu, .bgeo, .vdb, .json, .xyz, .csv or .txt")]
+    Extension,
+    #[error(transparent)]
+    Ply(#[from] super::ply::PlyError),
+    #[error(transparent)]
+    Text(#[from] super::text::TextError),
+    #[error("not a JSON array of [x, y, z] points")]
+    Json(#[from] serde_json::Error),
+    #[error(transparent)]
+    Vtk(#[from] super::vtk::VtkError),
+    #[error(transparent)]
+    Vtu(#[from] super::vtu::VtuError),
+    #[error(transparent)]
+    Bgeo(#[from] super::bgeo::BgeoError),
+    /// pysplishsplash 2.19's partio export writes each particle's id into the bits of its
+    /// x: x cannot be had back.
+    #[error("every x holds the particle's id, not a coordinate (SPlisHSPlasH's partio export writes so); export VTK (enableVTKExport) instead")]
+    IdsInX,
+    #[error("lists no <Piece Source=...> files")]
+    NoPieces,
+    #[error("piece {}", path.display())]
+    Piece {
+        path: PathBuf,
+        #[source]
+        source: Box<ParticleFault>,
+    },
+    #[error("particle {0} has a NaN or infinite coordinate")]
+    Position(usize),
+    #[error("particle {0} has a velocity that is not finite")]
+    Velocity(usize),
+    #[error("particle {0} has a radius that is not a positive number")]
+    Radius(usize),
+    /// OpenVDB's reason, through the bridge.
+    #[error("{0}")]
+    Vdb(String),
+    #[error("VDB point files need activeskin built with the `vdb` feature")]
+    NoVdb,
 }
 
 /// A particle file format read from bytes.
@@ -41,12 +99,9 @@ pub enum Format {
 /// every piece file they list), `.bgeo` (`.bgeo.gz`), `.vdb` (the first point data grid),
 /// `.json` (splashsurf's), or `.xyz` / `.csv` / `.txt`.
 pub fn read(path: &Path) -> Result<Particles, ParticleError> {
-    let error = |message: String| ParticleError {
-        path: path.to_path_buf(),
-        message,
-    };
+    let error = |fault: ParticleFault| ParticleError::new(path, fault);
     if let Some(why) = super::not_a_file(path) {
-        return Err(error(why));
+        return Err(error(ParticleFault::NotAFile(why)));
     }
     let ext = path
         .extension()
@@ -56,13 +111,11 @@ pub fn read(path: &Path) -> Result<Particles, ParticleError> {
         #[cfg(feature = "vdb")]
         {
             // The VDB reader names the file in its own errors.
-            let particles = read_vdb(path).map_err(|e| error(e.reason()))?;
+            let particles = read_vdb(path).map_err(|e| error(ParticleFault::Vdb(e.reason())))?;
             return check(particles).map_err(error);
         }
         #[cfg(not(feature = "vdb"))]
-        return Err(error(
-            "VDB point files need activeskin built with the `vdb` feature".into(),
-        ));
+        return Err(error(ParticleFault::NoVdb));
     }
     if matches!(ext.as_deref(), Some("pvtu" | "pvtp")) {
         return read_pieces(path).map_err(error);
@@ -82,19 +135,14 @@ pub fn read(path: &Path) -> Result<Particles, ParticleError> {
         {
             Format::Bgeo
         }
-        _ => {
-            return Err(error(
-                "particle files must end in .ply, .vtk, .vtu, .vtp, .pvtu, .bgeo, .vdb, .json, .xyz, .csv or .txt"
-                    .into(),
-            ))
-        }
+        _ => return Err(error(ParticleFault::Extension)),
     };
-    let bytes = std::fs::read(path).map_err(|e| error(e.to_string()))?;
+    let bytes = std::fs::read(path).map_err(|e| error(e.into()))?;
     parse(&bytes, format).map_err(error)
 }
 
 /// Parses a frame's bytes: positions finite, radii (when given) positive.
-pub fn parse(bytes: &[u8], format: Format) -> Result<Particles, String> {
+pub fn parse(bytes: &[u8], format: Format) -> Result<Particles, ParticleFault> {
     check(match format {
         Format::Ply => read_ply(bytes)?,
         Format::Text => read_text(bytes)?,
@@ -111,11 +159,11 @@ const INFLATE_LIMIT: u64 = 256;
 
 /// A partio BGEO's points, with the attributes simulators name velocity (`v`, partio's
 /// and Houdini's; SPlisHSPlasH `velocity`), identity (`id`) and radius (`pscale`).
-fn read_bgeo(bytes: &[u8]) -> Result<Particles, String> {
+fn read_bgeo(bytes: &[u8]) -> Result<Particles, ParticleFault> {
     let limit = (bytes.len() as u64)
         .saturating_mul(INFLATE_LIMIT)
         .max(1 << 20);
-    let points = super::bgeo::parse(bytes, limit).map_err(|e| error_chain(&e))?;
+    let points = super::bgeo::parse(bytes, limit)?;
     let n = points.positions.len();
     let column =
         |names: &[&str], components: usize| column(&points.attributes, n, names, components);
@@ -129,7 +177,7 @@ fn read_bgeo(bytes: &[u8]) -> Result<Particles, String> {
             .zip(ids)
             .all(|(p, &id)| i64::from(p[0].to_bits()) == id);
         if n > 1 && x_is_id {
-            return Err("every x holds the particle's id, not a coordinate (SPlisHSPlasH's partio export writes so); export VTK (enableVTKExport) instead".into());
+            return Err(ParticleFault::IdsInX);
         }
     }
     Ok(Particles {
@@ -167,37 +215,40 @@ fn vectors(values: &[f64]) -> Vec<Vec3> {
 
 /// A legacy VTK file's points, with the point data simulators name velocity
 /// (SPlisHSPlasH `velocity`, DualSPHysics `Vel`), identity (`id`, `Idp`) and radius.
-fn read_vtk(bytes: &[u8]) -> Result<Particles, String> {
-    let points = super::vtk::parse(bytes).map_err(|e| e.to_string())?;
+fn read_vtk(bytes: &[u8]) -> Result<Particles, ParticleFault> {
+    let points = super::vtk::parse(bytes)?;
     Ok(from_arrays(&points.positions, &points.arrays))
 }
 
 /// A VTK XML file's points (every piece), with the point data named as in legacy VTK.
-fn read_vtu(bytes: &[u8]) -> Result<Particles, String> {
+fn read_vtu(bytes: &[u8]) -> Result<Particles, ParticleFault> {
     let limit = (bytes.len() as u64)
         .saturating_mul(INFLATE_LIMIT)
         .max(1 << 20);
-    let points = super::vtu::parse(bytes, limit).map_err(|e| error_chain(&e))?;
+    let points = super::vtu::parse(bytes, limit)?;
     Ok(from_arrays(&points.positions, &points.arrays))
 }
 
 /// A parallel `.pvtu`/`.pvtp`: the points of every piece file it lists, in order, with
 /// the attributes every piece has.
-fn read_pieces(path: &Path) -> Result<Particles, String> {
-    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
-    let sources = super::vtu::piece_sources(&bytes).map_err(|e| error_chain(&e))?;
+fn read_pieces(path: &Path) -> Result<Particles, ParticleFault> {
+    let bytes = std::fs::read(path)?;
+    let sources = super::vtu::piece_sources(&bytes)?;
     if sources.is_empty() {
-        return Err("lists no <Piece Source=...> files".into());
+        return Err(ParticleFault::NoPieces);
     }
     let folder = path.parent().unwrap_or(Path::new(""));
     let mut all = Particles::default();
     for (k, source) in sources.iter().enumerate() {
         let piece = folder.join(source);
         let part = std::fs::read(&piece)
-            .map_err(|e| e.to_string())
+            .map_err(ParticleFault::from)
             .and_then(|b| read_vtu(&b))
             .and_then(check)
-            .map_err(|e| format!("piece {}: {e}", piece.display()))?;
+            .map_err(|e| ParticleFault::Piece {
+                path: piece.clone(),
+                source: Box::new(e),
+            })?;
         if k == 0 {
             all = part;
             continue;
@@ -216,17 +267,6 @@ fn read_pieces(path: &Path) -> Result<Particles, String> {
     Ok(all)
 }
 
-/// An error with its causes, `error: cause: cause`.
-fn error_chain(e: &dyn std::error::Error) -> String {
-    let mut text = e.to_string();
-    let mut source = e.source();
-    while let Some(cause) = source {
-        text = format!("{text}: {cause}");
-        source = cause.source();
-    }
-    text
-}
-
 /// Particles from positions and the point-data arrays simulators name velocity
 /// (SPlisHSPlasH `velocity`, DualSPHysics `Vel`), identity (`id`, `Idp`) and radius.
 fn from_arrays(positions: &[[f64; 3]], arrays: &[super::PointArray]) -> Particles {
@@ -243,20 +283,18 @@ fn from_arrays(positions: &[[f64; 3]], arrays: &[super::PointArray]) -> Particle
     }
 }
 
-fn check(particles: Particles) -> Result<Particles, String> {
+fn check(particles: Particles) -> Result<Particles, ParticleFault> {
     if let Some(i) = particles.positions.iter().position(|p| !p.is_finite()) {
-        return Err(format!("particle {i} has a NaN or infinite coordinate"));
+        return Err(ParticleFault::Position(i));
     }
     if let Some(v) = &particles.velocities {
         if let Some(i) = v.iter().position(|v| !v.is_finite()) {
-            return Err(format!("particle {i} has a velocity that is not finite"));
+            return Err(ParticleFault::Velocity(i));
         }
     }
     if let Some(radii) = &particles.radii {
         if let Some(i) = radii.iter().position(|r| !(r.is_finite() && *r > 0.0)) {
-            return Err(format!(
-                "particle {i} has a radius that is not a positive number"
-            ));
+            return Err(ParticleFault::Radius(i));
         }
     }
     Ok(particles)
@@ -321,9 +359,9 @@ mod tests {
         let plain = p("1 2 3 0.5\n4 5 6 0.5\n").unwrap();
         assert_eq!(plain.radii, Some(vec![0.5, 0.5]));
         // A header naming no position, a row short of the header: one line each.
-        let e = p("a,b,c\n1,2,3\n").unwrap_err();
+        let e = p("a,b,c\n1,2,3\n").unwrap_err().to_string();
         assert!(e.contains("no x, y and z") && e.contains("a,b,c"), "{e}");
-        let e = p("x,y,z,id\n1,2,3\n").unwrap_err();
+        let e = p("x,y,z,id\n1,2,3\n").unwrap_err().to_string();
         assert!(e.contains("line 2") && e.contains("4 columns"), "{e}");
     }
 
@@ -344,7 +382,7 @@ mod tests {
             );
         }
         let nan = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty float vx\nproperty float vy\nproperty float vz\nend_header\n0 0 0 nan 0 0\n";
-        let err = parse(nan.as_bytes(), Format::Ply).unwrap_err();
+        let err = parse(nan.as_bytes(), Format::Ply).unwrap_err().to_string();
         assert!(err.contains("velocity"), "{err}");
         // Without them: none.
         let plain = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n";
@@ -390,21 +428,30 @@ mod tests {
         let truncated = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n\0\0\0\0";
         assert!(read_ply(truncated)
             .unwrap_err()
+            .to_string()
             .contains("3 vertices announced"));
         let bad_type =
             "ply\nformat ascii 1.0\nelement vertex 1\nproperty quaternion x\nend_header\n";
         assert!(read_ply(bad_type.as_bytes())
             .unwrap_err()
+            .to_string()
             .contains("unknown type"));
         let twice = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty float x\nend_header\n1 2 3 4\n";
-        let e = read_ply(twice.as_bytes()).unwrap_err();
+        let e = read_ply(twice.as_bytes()).unwrap_err().to_string();
         assert!(e.contains("property x appears twice"), "{e}");
         let few = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n";
         assert!(read_ply(few.as_bytes())
             .unwrap_err()
+            .to_string()
             .contains("2 vertices announced, 1 found"));
-        assert!(read_ply(b"hello").unwrap_err().contains("not a PLY file"));
-        assert!(read_text(b"1 2\n").unwrap_err().contains("expected x y z"));
+        assert!(read_ply(b"hello")
+            .unwrap_err()
+            .to_string()
+            .contains("not a PLY file"));
+        assert!(read_text(b"1 2\n")
+            .unwrap_err()
+            .to_string()
+            .contains("expected x y z"));
     }
 
     /// Found by cargo fuzz: a header announcing trillions of vertices made the reader ask
@@ -427,7 +474,7 @@ mod tests {
             } else {
                 bytes.extend_from_slice(&[0x3f; 40]);
             }
-            let err = parse(&bytes, Format::Ply).unwrap_err();
+            let err = parse(&bytes, Format::Ply).unwrap_err().to_string();
             assert!(err.contains("vertices announced"), "{format}: {err}");
         }
     }

@@ -32,7 +32,16 @@ fn type_size(name: &str) -> Option<usize> {
     })
 }
 
-pub(crate) fn read_ply(bytes: &[u8]) -> Result<Particles, String> {
+/// A PLY particle file that cannot be read: what is wrong, where (a line, an element).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct PlyError(pub String);
+
+pub(crate) fn read_ply(bytes: &[u8]) -> Result<Particles, PlyError> {
+    parse_ply(bytes).map_err(PlyError)
+}
+
+fn parse_ply(bytes: &[u8]) -> Result<Particles, String> {
     const END: &[u8] = b"end_header";
     let end = bytes
         .windows(END.len())
@@ -224,22 +233,63 @@ fn scalar(ty: &str, raw: &[u8], little: bool) -> f64 {
 
 /// Writes positions as a binary little-endian PLY (`x y z` floats), atomically.
 pub fn write_ply(path: &Path, positions: &[Vec3]) -> Result<(), ParticleError> {
-    let mut bytes = format!(
-        "ply\nformat binary_little_endian 1.0\ncomment activeskin\nelement vertex {}\n\
-         property float x\nproperty float y\nproperty float z\nend_header\n",
-        positions.len()
-    )
-    .into_bytes();
-    for c in positions.iter().flat_map(|p| p.to_array()) {
-        bytes.extend_from_slice(&c.to_le_bytes());
+    let particles = Particles {
+        positions: positions.to_vec(),
+        ..Particles::default()
+    };
+    write_particles(path, &particles)
+}
+
+/// Writes a particle frame as a binary little-endian PLY, atomically: `x y z`, then what
+/// the frame has of `vx vy vz`, `radius` (floats) and `id` (`int` when every id fits in
+/// 32 bits, else `double`, exact to 2⁵³) — what [`read_ply`] reads back as it was: a
+/// converter from any format read.
+pub fn write_particles(path: &Path, particles: &Particles) -> Result<(), ParticleError> {
+    let n = particles.positions.len();
+    let wide_ids = particles
+        .ids
+        .as_ref()
+        .is_some_and(|ids| ids.iter().any(|&i| i32::try_from(i).is_err()));
+    let mut header = format!(
+        "ply\nformat binary_little_endian 1.0\ncomment activeskin\nelement vertex {n}\n\
+         property float x\nproperty float y\nproperty float z\n"
+    );
+    if particles.velocities.is_some() {
+        header += "property float vx\nproperty float vy\nproperty float vz\n";
     }
-    super::write_atomically(path, |tmp| {
-        std::fs::write(tmp, &bytes).map_err(|e| e.to_string())
-    })
-    .map_err(|message| ParticleError {
-        path: path.to_path_buf(),
-        message,
-    })
+    if particles.radii.is_some() {
+        header += "property float radius\n";
+    }
+    if particles.ids.is_some() {
+        header += if wide_ids {
+            "property double id\n"
+        } else {
+            "property int id\n"
+        };
+    }
+    header += "end_header\n";
+    let mut bytes = header.into_bytes();
+    for i in 0..n {
+        let mut floats = particles.positions[i].to_array().to_vec();
+        if let Some(v) = &particles.velocities {
+            floats.extend(v[i].to_array());
+        }
+        if let Some(r) = &particles.radii {
+            floats.push(r[i]);
+        }
+        for c in floats {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
+        if let Some(ids) = &particles.ids {
+            if wide_ids {
+                bytes.extend_from_slice(&(ids[i] as f64).to_le_bytes());
+            } else {
+                bytes.extend_from_slice(&(ids[i] as i32).to_le_bytes());
+            }
+        }
+    }
+    super::write_atomically(path, |tmp| std::fs::write(tmp, &bytes))
+        .map_err(|e| ParticleError::new(path, e))
 }
 
 /// Binary little-endian PLY with normals, its body laid out in parallel.

@@ -5,8 +5,8 @@ use std::path::Path;
 
 use crate::render::Render;
 
-pub fn write(image: &Render, path: &Path) -> Result<(), String> {
-    let file = std::fs::File::create(path).map_err(|e| e.to_string())?;
+pub fn write(image: &Render, path: &Path) -> Result<(), png::EncodingError> {
+    let file = std::fs::File::create(path)?;
     let mut encoder = png::Encoder::new(
         BufWriter::new(file),
         image.width as u32,
@@ -25,8 +25,7 @@ pub fn write(image: &Render, path: &Path) -> Result<(), String> {
             })
         })
         .collect();
-    encoder
-        .write_header()
-        .and_then(|mut w| w.write_image_data(&bytes))
-        .map_err(|e| e.to_string())
+    let mut writer = encoder.write_header()?;
+    writer.write_image_data(&bytes)?;
+    writer.finish()
 }

@@ -2,6 +2,7 @@
 //! columns (ParaView's, DualSPHysics', and the usual spellings).
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use crate::particles::Particles;
 
@@ -10,22 +11,18 @@ use crate::particles::Particles;
 /// DualSPHysics' `Pos.x [m]`, `position_x`, …; radius (`radius`, `pscale`), velocity
 /// (`vx`, `velocity:0`, `Vel.x`, `v_x`, …) and id (`id`, `Idp`) read by name, other
 /// columns ignored.
-pub(crate) fn read_text(bytes: &[u8]) -> Result<Particles, String> {
+/// A text particle file that cannot be read: what is wrong, where (a line, an element).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct TextError(pub String);
+
+pub(crate) fn read_text(bytes: &[u8]) -> Result<Particles, TextError> {
+    parse_text(bytes).map_err(TextError)
+}
+
+fn parse_text(bytes: &[u8]) -> Result<Particles, String> {
     let text = std::str::from_utf8(bytes).map_err(|_| "not a text file".to_string())?;
-    // Commas, semicolons or tabs when the line has any (names may hold spaces:
-    // `Pos.x [m]`), else spaces.
-    let split = |line: &str| -> Vec<String> {
-        let fields: Vec<&str> = if line.contains([',', ';', '\t']) {
-            line.split([',', ';', '\t']).collect()
-        } else {
-            line.split_whitespace().collect()
-        };
-        fields
-            .into_iter()
-            .map(|f| f.trim().to_string())
-            .filter(|f| !f.is_empty())
-            .collect()
-    };
+    let split = |line: &str| -> Vec<String> { fields(line).map(str::to_string).collect() };
     let mut lines = text
         .lines()
         .enumerate()
@@ -44,57 +41,96 @@ pub(crate) fn read_text(bytes: &[u8]) -> Result<Particles, String> {
         }
         _ => None,
     };
-    let mut out = Particles::default();
-    let (mut radii, mut velocities, mut ids) = (Vec::new(), Vec::new(), Vec::new());
-    for (n, line) in first.into_iter().chain(lines) {
-        let fields = split(line);
-        let numbers: Vec<f64> = fields
-            .iter()
-            .map(|f| f.trim_matches('"').parse::<f64>())
-            .collect::<Result<_, _>>()
-            .map_err(|_| format!("line {n}: not numbers: '{line}'"))?;
-        let at = |k: usize| numbers[k] as f32;
-        match &columns {
-            Some(c) => {
-                if numbers.len() < c.width {
-                    return Err(format!(
-                        "line {n}: {} numbers, the header names {} columns",
-                        numbers.len(),
-                        c.width
-                    ));
-                }
-                out.positions.push(Vec3::new(at(c.x[0]), at(c.x[1]), at(c.x[2])));
-                if let Some(k) = c.radius {
-                    radii.push(at(k));
-                }
-                if let Some(v) = c.velocity {
-                    velocities.push(Vec3::new(at(v[0]), at(v[1]), at(v[2])));
-                }
-                if let Some(k) = c.id {
-                    ids.push(numbers[k] as i64);
-                }
+    // The rows, each parsed on its own (in parallel, numbers into a buffer per thread).
+    let rows: Vec<(usize, &str)> = first.into_iter().chain(lines).collect();
+    let parsed: Vec<Row> = rows
+        .par_iter()
+        .map_init(Vec::new, |numbers, &(n, line)| {
+            numbers.clear();
+            for field in fields(line) {
+                let number = field
+                    .trim_matches('"')
+                    .parse::<f64>()
+                    .map_err(|_| format!("line {n}: not numbers: '{line}'"))?;
+                numbers.push(number);
             }
-            None => match numbers.len() {
-                3 => out.positions.push(Vec3::new(at(0), at(1), at(2))),
-                4 => {
-                    out.positions.push(Vec3::new(at(0), at(1), at(2)));
-                    radii.push(at(3));
-                }
-                k => {
-                    return Err(format!(
-                        "line {n}: {k} numbers, expected x y z [radius] (or a header naming the columns)"
-                    ))
-                }
-            },
-        }
-    }
-    if !radii.is_empty() && radii.len() != out.positions.len() {
+            row(n, numbers, columns.as_ref())
+        })
+        .collect::<Vec<Result<Row, String>>>()
+        .into_iter()
+        // The first bad line, whichever thread met it.
+        .collect::<Result<_, String>>()?;
+    let with_radius = parsed.iter().filter(|r| r.radius.is_some()).count();
+    if with_radius != 0 && with_radius != parsed.len() {
         return Err("some lines have a radius and others not".into());
     }
-    out.radii = (!radii.is_empty()).then_some(radii);
-    out.velocities = (!velocities.is_empty()).then_some(velocities);
-    out.ids = (!ids.is_empty()).then_some(ids);
-    Ok(out)
+    let column = |present: bool, get: &dyn Fn(&Row) -> bool| present && parsed.iter().all(get);
+    let has_velocity = column(!parsed.is_empty(), &|r| r.velocity.is_some());
+    let has_id = column(!parsed.is_empty(), &|r| r.id.is_some());
+    Ok(Particles {
+        positions: parsed.iter().map(|r| r.position).collect(),
+        radii: (with_radius != 0).then(|| parsed.iter().filter_map(|r| r.radius).collect()),
+        velocities: has_velocity.then(|| parsed.iter().filter_map(|r| r.velocity).collect()),
+        ids: has_id.then(|| parsed.iter().filter_map(|r| r.id).collect()),
+    })
+}
+
+/// One row's particle.
+struct Row {
+    position: Vec3,
+    radius: Option<f32>,
+    velocity: Option<Vec3>,
+    id: Option<i64>,
+}
+
+/// A line's fields: split at commas, semicolons or tabs when it has any (names may hold
+/// spaces: `Pos.x [m]`), else at spaces; trimmed, empty ones dropped.
+fn fields(line: &str) -> impl Iterator<Item = &str> {
+    let separated = line.contains([',', ';', '\t']);
+    let (a, b) = if separated {
+        (Some(line.split([',', ';', '\t'])), None)
+    } else {
+        (None, Some(line.split_whitespace()))
+    };
+    a.into_iter()
+        .flatten()
+        .chain(b.into_iter().flatten())
+        .map(str::trim)
+        .filter(|f| !f.is_empty())
+}
+
+/// Row `n`'s particle from its `numbers`, by the header's columns or, without one, as
+/// `x y z [radius]`.
+fn row(n: usize, numbers: &[f64], columns: Option<&Columns>) -> Result<Row, String> {
+    let at = |k: usize| numbers[k] as f32;
+    match columns {
+        Some(c) => {
+            if numbers.len() < c.width {
+                return Err(format!(
+                    "line {n}: {} numbers, the header names {} columns",
+                    numbers.len(),
+                    c.width
+                ));
+            }
+            Ok(Row {
+                position: Vec3::new(at(c.x[0]), at(c.x[1]), at(c.x[2])),
+                radius: c.radius.map(at),
+                velocity: c.velocity.map(|v| Vec3::new(at(v[0]), at(v[1]), at(v[2]))),
+                id: c.id.map(|k| numbers[k] as i64),
+            })
+        }
+        None => match numbers.len() {
+            3 | 4 => Ok(Row {
+                position: Vec3::new(at(0), at(1), at(2)),
+                radius: (numbers.len() == 4).then(|| at(3)),
+                velocity: None,
+                id: None,
+            }),
+            k => Err(format!(
+                "line {n}: {k} numbers, expected x y z [radius] (or a header naming the columns)"
+            )),
+        },
+    }
 }
 
 /// Where a CSV header puts the columns read.

@@ -62,6 +62,18 @@ impl VdbError {
     }
 }
 
+/// Why a VDB file could not be written: OpenVDB's reason, the file system's, or a file
+/// that came out short.
+#[derive(Debug, thiserror::Error)]
+enum WriteFault {
+    #[error("{0}")]
+    OpenVdb(String),
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    #[error("the file came out incomplete ({length} bytes: {reason}); is the disk out of space?")]
+    Incomplete { length: u64, reason: String },
+}
+
 /// OpenVDB messages may span lines; ours must not.
 fn one_line(message: &str) -> String {
     message.split_whitespace().collect::<Vec<_>>().join(" ")
@@ -387,22 +399,22 @@ pub fn write_grids_and_vectors(
     crate::io::write_atomically(path, |tmp| {
         writer
             .write(&tmp.to_string_lossy(), metadata)
-            .map_err(|e| e.what().to_string())?;
+            .map_err(|e| WriteFault::OpenVdb(e.what().to_string()))?;
         verify_written(tmp)
     })
-    .map_err(|message| VdbError::file(path, message))
+    .map_err(|fault| VdbError::file(path, fault))
 }
 
 /// OpenVDB writes through a std::ofstream whose failures it does not check: on a full
 /// disk it leaves a short file and reports success. So the file is flushed to disk and
 /// its layout walked before it may take its final name.
-fn verify_written(tmp: &Path) -> Result<(), String> {
-    let file = std::fs::File::open(tmp).map_err(|e| e.to_string())?;
-    file.sync_all().map_err(|e| e.to_string())?;
-    let length = file.metadata().map_err(|e| e.to_string())?.len();
-    layout::check(std::io::BufReader::new(file), length).map(drop).map_err(|reason| {
-        format!("the file came out incomplete ({length} bytes: {reason}); is the disk out of space?")
-    })
+fn verify_written(tmp: &Path) -> Result<(), WriteFault> {
+    let file = std::fs::File::open(tmp)?;
+    file.sync_all()?;
+    let length = file.metadata()?.len();
+    layout::check(std::io::BufReader::new(file), length)
+        .map(drop)
+        .map_err(|reason| WriteFault::Incomplete { length, reason })
 }
 
 /// Positions (world space) and `pscale` radii of a point data grid, as Houdini's VDB from
@@ -445,10 +457,10 @@ pub fn write_points_with_velocities(
             voxel_size,
             name,
         )
-        .map_err(|e| e.what().to_string())?;
+        .map_err(|e| WriteFault::OpenVdb(e.what().to_string()))?;
         verify_written(tmp)
     })
-    .map_err(|message| VdbError::file(path, message))
+    .map_err(|fault| VdbError::file(path, fault))
 }
 
 /// Writes a point data grid of `positions` after the float grid `beside`, in one file: a
@@ -469,10 +481,10 @@ pub fn write_points_beside(
             name,
             &beside.inner,
         )
-        .map_err(|e| e.what().to_string())?;
+        .map_err(|e| WriteFault::OpenVdb(e.what().to_string()))?;
         verify_written(tmp)
     })
-    .map_err(|message| VdbError::file(path, message))
+    .map_err(|fault| VdbError::file(path, fault))
 }
 
 /// Writes a file holding only a Vec3s grid named `v`: a fixture for tests of bad input.
