@@ -15,6 +15,7 @@ mod info;
 mod mesh;
 mod morph;
 mod particles;
+mod progress;
 mod render;
 mod skin;
 mod validate;

@@ -18,7 +18,7 @@ mod targets;
 use std::time::Instant;
 
 pub use inputs::{auto_warmup, InputFrames, ParticleFrame, ParticleInput, WARMUP_AUTO_FACTOR};
-pub use outputs::{OutputSpec, Outputs, Progress};
+pub use outputs::{OutputSpec, Outputs, Progress, Report};
 pub use particle_run::ParticleRun;
 #[cfg(feature = "vdb")]
 pub use targets::{
@@ -67,6 +67,17 @@ pub enum FrameError {
     Usage(String),
 }
 
+/// A frame rate a run can advance by: finite and positive.
+pub fn check_fps(fps: f64) -> Result<(), FrameError> {
+    if fps.is_finite() && fps > 0.0 {
+        Ok(())
+    } else {
+        Err(FrameError::Usage(format!(
+            "the frame rate must be a positive number, got {fps}"
+        )))
+    }
+}
+
 /// What one frame brings: its target and, when known, the material's velocity then.
 pub struct FrameInput<'t> {
     pub target: Box<dyn Target + 't>,
@@ -112,6 +123,7 @@ pub fn run<'t>(
     outputs: &mut Outputs,
     mut input_at: impl FnMut(i64) -> Result<FrameInput<'t>, FrameError>,
 ) -> Result<(), FrameError> {
+    check_fps(fps)?;
     // Moved on by a resume, which needs OpenVDB.
     #[cfg_attr(not(feature = "vdb"), allow(unused_mut))]
     let mut start = first;

@@ -8,7 +8,9 @@ mod common;
 use std::path::Path;
 
 use activeskin::flow::Timing;
-use activeskin::frames::{InputFrames, OutputSpec, Outputs, ParticleInput, ParticleRun, Progress};
+use activeskin::frames::{
+    InputFrames, OutputSpec, Outputs, ParticleInput, ParticleRun, Progress, Report,
+};
 use activeskin::skin::{SkinParams, SpeedParams};
 use activeskin::target::{fluid_iso, DEFAULT_SMOOTHING_LENGTH};
 
@@ -17,6 +19,8 @@ const RADIUS: f32 = 0.04;
 const ALPHA: f32 = 48.0;
 
 fn run_library(into: &Path) {
+    // What a front end is told: the frames, each frame written with its measures, the end.
+    let told = std::sync::Arc::new(std::sync::Mutex::new(Vec::<Report>::new()));
     let input = InputFrames::find(
         "--particles",
         &format!("{DATA}/data/splash/drop.####.ply"),
@@ -43,7 +47,13 @@ fn run_library(into: &Path) {
         up: Default::default(),
         stats: None,
         resume: false,
-        progress: Progress::Quiet,
+        progress: Some(Progress {
+            each: std::sync::Arc::new({
+                let told = told.clone();
+                move |report| told.lock().unwrap().push(*report)
+            }),
+            topology: true,
+        }),
         stats_fields: Default::default(),
         reads: vec![input.pattern.clone()],
     };
@@ -64,6 +74,22 @@ fn run_library(into: &Path) {
     let mut notes = Vec::new();
     run.run(&mut outputs, &mut |line| notes.push(line)).unwrap();
     assert!(notes.is_empty(), "{notes:?}");
+    let told = told.lock().unwrap();
+    assert!(
+        matches!(told[0], Report::Start { first: 1, last: 4 }),
+        "{told:?}"
+    );
+    for (k, report) in told[1..5].iter().enumerate() {
+        match *report {
+            Report::Frame { frame, stats, .. } => {
+                assert_eq!(frame, k as i64 + 1);
+                // Asked for: one closed component.
+                assert_eq!((stats.components, stats.euler_characteristic), (1, 2));
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+    assert!(matches!(told[5..], [Report::Done]), "{told:?}");
 }
 
 /// `activeskin particles` on the splash sample at the library run's radius, plus `extra`.
@@ -196,6 +222,12 @@ fn the_library_checks_parameters_and_warms_up() {
         .unwrap_err()
         .to_string();
     assert_eq!(message, "dx must be a positive number, got -1");
+
+    // The frame loop refuses a frame rate it cannot advance by.
+    for bad in [0.0, -24.0, f64::NAN, f64::INFINITY] {
+        assert!(activeskin::frames::check_fps(bad).is_err(), "{bad}");
+    }
+    assert!(activeskin::frames::check_fps(24.0).is_ok());
 
     // ln(40)·fps/α frames: 23 at α 4 and 24 fps; none without attraction.
     assert_eq!(auto_warmup(4.0, 24.0), 23);

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use activeskin::frames::{OutputSpec, Progress};
+use activeskin::frames::OutputSpec;
 use activeskin::grid::Precision;
 use activeskin::skin::{SkinError, SkinParams, SpeedParams};
 
@@ -175,11 +175,7 @@ impl OutputArgs {
             up: self.up.into(),
             stats: self.stats.clone(),
             resume: self.resume,
-            progress: if self.quiet {
-                Progress::Quiet
-            } else {
-                Progress::Auto
-            },
+            progress: (!self.quiet).then(super::progress::shown),
             stats_fields: Default::default(),
             reads: Vec::new(),
         })

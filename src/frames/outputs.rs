@@ -1,12 +1,12 @@
 //! What a frame writes: the skin VDB, the mesh, a render, a stats line, progress. Each
 //! file is written under a temporary name and renamed.
 
-use std::io::{IsTerminal, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 use hashbrown::HashMap;
-use indicatif::{ProgressBar, ProgressStyle};
 
 use super::FrameError;
 use crate::grid::Aabb;
@@ -18,12 +18,36 @@ use crate::target::{LevelSetTarget, Target};
 use crate::vdb::{self, Grid, WriteOptions};
 use crate::volume::GridData;
 
-/// How progress is shown.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Progress {
-    /// A bar on a terminal, a line per frame otherwise.
-    Auto,
-    Quiet,
+/// What a run tells its front end as it goes (a progress bar, a log, a Python callback):
+/// the library writes files and prints nothing.
+#[derive(Debug, Clone, Copy)]
+pub enum Report {
+    /// The frames to be written, before the first.
+    Start { first: i64, last: i64 },
+    /// Frames already written (a resume), skipped.
+    Skipped { frames: u64 },
+    /// A frame written: its measures and the milliseconds it took.
+    Frame {
+        frame: i64,
+        stats: StepStats,
+        milliseconds: f64,
+    },
+    /// The last frame written.
+    Done,
+}
+
+/// Who is told of the run ([`Report`]), and whether it wants each frame's Euler
+/// characteristic and components (they cost a pass over the mesh; 0 otherwise).
+#[derive(Clone)]
+pub struct Progress {
+    pub each: Arc<dyn Fn(&Report) + Send + Sync>,
+    pub topology: bool,
+}
+
+impl std::fmt::Debug for Progress {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Progress {{ topology: {} }}", self.topology)
+    }
 }
 
 /// The files a run writes per frame, each optional (at least one is needed).
@@ -41,7 +65,8 @@ pub struct OutputSpec {
     pub stats: Option<PathBuf>,
     /// Continue after the last skin VDB written under `out`.
     pub resume: bool,
-    pub progress: Progress,
+    /// Told of each frame; none for a quiet run.
+    pub progress: Option<Progress>,
     /// Fields added to every stats line (how the run was set up, e.g. the velocity's
     /// measured scale).
     pub stats_fields: serde_json::Map<String, serde_json::Value>,
@@ -58,8 +83,7 @@ pub struct Outputs {
     up: Up,
     stats: Option<(PathBuf, Vec<u8>)>,
     stats_fields: serde_json::Map<String, serde_json::Value>,
-    progress: ProgressBar,
-    plain: bool,
+    progress: Option<Progress>,
 }
 
 impl Outputs {
@@ -111,20 +135,9 @@ impl Outputs {
                 })?;
             }
         }
-        let terminal = std::io::stderr().is_terminal();
-        let quiet = spec.progress == Progress::Quiet;
-        let progress = if quiet || !terminal {
-            ProgressBar::hidden()
-        } else {
-            let bar = ProgressBar::new((last - first + 1).max(0) as u64);
-            bar.set_style(
-                ProgressStyle::with_template(
-                    "{bar:40} {pos}/{len} frames, {elapsed} ({eta} left) {msg}",
-                )
-                .expect("a valid progress template"),
-            );
-            bar
-        };
+        if let Some(p) = &spec.progress {
+            (p.each)(&Report::Start { first, last });
+        }
         Ok(Outputs {
             resume: spec.resume,
             out,
@@ -133,8 +146,7 @@ impl Outputs {
             up: spec.up,
             stats: spec.stats.clone().map(|p| (p, Vec::new())),
             stats_fields: spec.stats_fields.clone(),
-            progress,
-            plain: !quiet && !terminal,
+            progress: spec.progress.clone(),
         })
     }
 
@@ -230,25 +242,24 @@ impl Outputs {
                 &meta,
             )?;
         }
-        if self.plain {
-            println!(
-                "frame {frame}: {} sub-steps, {} band nodes, area {:.4}, volume {:.4}, χ {}, {} component(s), {ms:.0} ms",
-                stats.substeps,
-                stats.band_nodes,
-                stats.area,
-                stats.volume,
-                stats.euler_characteristic,
-                stats.components,
-            );
-        }
-        self.progress.inc(1);
+        self.tell(&Report::Frame {
+            frame,
+            stats: *stats,
+            milliseconds: ms,
+        });
         Ok(())
     }
 
     /// Whether a frame's χ and components are written or printed ([`Outputs::write_frame`]
     /// reads them from its stats).
     pub fn reports_topology(&self) -> bool {
-        self.stats.is_some() || self.plain
+        self.stats.is_some() || self.progress.as_ref().is_some_and(|p| p.topology)
+    }
+
+    fn tell(&self, report: &Report) {
+        if let Some(p) = &self.progress {
+            (p.each)(report);
+        }
     }
 
     /// Keeps the stats of frames already written when resuming: the lines before `frame`.
@@ -275,11 +286,11 @@ impl Outputs {
     }
 
     pub fn skip(&self, frames: u64) {
-        self.progress.inc(frames);
+        self.tell(&Report::Skipped { frames });
     }
 
     pub fn finish(&self) {
-        self.progress.finish_and_clear();
+        self.tell(&Report::Done);
     }
 }
 

@@ -39,6 +39,8 @@ impl ParticleRun<'_> {
         if let Err(why) = self.particles.check() {
             return Err(FrameError::Usage(why));
         }
+        super::check_fps(self.fps)?;
+        self.params.check()?;
         let (input, range, write_from) = (self.input, self.input.range, self.write_from);
         // A warm-up frame writes nothing, its density neither.
         let quiet = ParticleInput {
