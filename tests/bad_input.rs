@@ -542,3 +542,43 @@ fn a_level_set_too_far_for_its_voxels_is_one_line() {
     assert!(common::stderr(&out).contains("32-bit positions do not resolve"));
     assert_eq!(names(dir.path()), vec!["far.vdb"]);
 }
+
+/// A level set in absurd units (distances ×1e30) is measured and rescaled like one in
+/// voxels: the skin is the sphere, not empty (|∇φ|² overflowed f32, the distances were
+/// rescaled by 0 and every frame came out empty, exit 0), and the note says by how much.
+#[test]
+fn a_level_set_in_absurd_units_is_rescaled_not_emptied() {
+    let dir = common::scratch();
+    let mut data = Grid::level_set_sphere(0.5, [0.0; 3], 0.025, 3.0)
+        .unwrap()
+        .to_data()
+        .unwrap();
+    data.leaf_values.iter_mut().for_each(|v| *v *= 1e30);
+    data.tiles.iter_mut().for_each(|t| t.value *= 1e30);
+    data.background *= 1e30;
+    let file = dir.path().join("absurd.vdb");
+    write(&file, &data);
+    let mesh = dir.path().join("skin.####.obj");
+    let out = common::activeskin_bounded(&[
+        "skin",
+        "--target",
+        file.to_str().unwrap(),
+        "--frames",
+        "1-2",
+        "--mesh",
+        mesh.to_str().unwrap(),
+    ]);
+    common::assert_ok(&out);
+    let note = common::stderr(&out);
+    assert!(
+        note.contains("rescaled by 1.0") && note.contains("e-30"),
+        "{note}"
+    );
+    let skin = common::read_mesh(&dir.path().join("skin.0002.obj")).unwrap();
+    let sphere = 4.0 / 3.0 * std::f64::consts::PI * 0.125;
+    let volume = skin.area_and_volume().1;
+    assert!(
+        (volume / sphere - 1.0).abs() < 0.03,
+        "{volume} against {sphere}"
+    );
+}

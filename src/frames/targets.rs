@@ -80,6 +80,16 @@ pub fn read_target_in(
     Ok(TargetRead { target, dx, note })
 }
 
+/// A factor as a person reads it: 4 significant digits, in scientific notation when far
+/// from 1 (a factor of 1e-30 printed as 0.0000 said nothing).
+fn readable(k: f64) -> String {
+    if (1e-3..1e4).contains(&k.abs()) {
+        format!("{k:.4}")
+    } else {
+        format!("{k:.3e}")
+    }
+}
+
 /// Makes a level set's distances world units, and a background of 0 (a dense grid, as
 /// Mantaflow writes) outside; says what it did.
 fn to_world_units(data: &mut GridData, units: TargetUnits) -> Option<String> {
@@ -100,8 +110,9 @@ fn to_world_units(data: &mut GridData, units: TargetUnits) -> Option<String> {
             Some(k) => (
                 (1.0 / k) as f32,
                 Some(format!(
-                    "grid '{name}': |∇φ| is {k:.3} per world unit, not 1; distances rescaled by {:.4} (--target-units world keeps them)",
-                    1.0 / k
+                    "grid '{name}': |∇φ| is {} per world unit, not 1; distances rescaled by {} (--target-units world keeps them)",
+                    readable(k),
+                    readable(1.0 / k)
                 )),
             ),
             None => (1.0, None),

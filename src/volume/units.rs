@@ -9,21 +9,23 @@ use super::{GridData, LEAF_VOXELS};
 /// a crossing to measure on.
 pub fn gradient_per_world_unit(data: &GridData) -> Option<f64> {
     let dx = data.transform.voxel_size();
-    let mut norms: Vec<f32> = Vec::new();
+    // In f64: values of 1e30 (a cache in absurd units) square past f32's range.
+    let mut norms: Vec<f64> = Vec::new();
     for leaf in 0..data.leaf_count() {
         let v = &data.leaf_values[leaf * LEAF_VOXELS..(leaf + 1) * LEAF_VOXELS];
         let at = |x: usize, y: usize, z: usize| v[x * 64 + y * 8 + z];
         for x in 1..7 {
             for y in 1..7 {
                 for z in 1..7 {
-                    let f = at(x, y, z);
+                    let f = f64::from(at(x, y, z));
                     let crossed = [at(x + 1, y, z), at(x, y + 1, z), at(x, y, z + 1)]
                         .iter()
                         .any(|&g| (g < 0.0) != (f < 0.0));
                     if crossed {
-                        let gx = at(x + 1, y, z) - at(x - 1, y, z);
-                        let gy = at(x, y + 1, z) - at(x, y - 1, z);
-                        let gz = at(x, y, z + 1) - at(x, y, z - 1);
+                        let d = |a: f32, b: f32| f64::from(a) - f64::from(b);
+                        let gx = d(at(x + 1, y, z), at(x - 1, y, z));
+                        let gy = d(at(x, y + 1, z), at(x, y - 1, z));
+                        let gz = d(at(x, y, z + 1), at(x, y, z - 1));
                         norms.push(0.5 * (gx * gx + gy * gy + gz * gz).sqrt());
                     }
                 }
@@ -34,8 +36,8 @@ pub fn gradient_per_world_unit(data: &GridData) -> Option<f64> {
         return None;
     }
     let middle = norms.len() / 2;
-    let (_, median, _) = norms.select_nth_unstable_by(middle, f32::total_cmp);
-    Some(f64::from(*median) / dx)
+    let (_, median, _) = norms.select_nth_unstable_by(middle, f64::total_cmp);
+    Some(*median / dx).filter(|k| k.is_finite() && *k > 0.0)
 }
 
 /// Multiplies every distance of `data` (values, tiles, background) by `scale`.
@@ -64,5 +66,13 @@ mod tests {
         rescale(&mut grid, 1.0 / dx);
         let voxels = gradient_per_world_unit(&grid).unwrap();
         assert!((voxels * f64::from(dx) - 1.0).abs() < 0.02, "{voxels}");
+        // Absurd units are measured too (their squares overflowed f32: infinite, then a
+        // rescale by 0 that emptied the skin), and rescaled back to distances.
+        rescale(&mut grid, 1e30 * dx);
+        let absurd = gradient_per_world_unit(&grid).unwrap();
+        assert!((absurd / 1e30 - 1.0).abs() < 0.02, "{absurd}");
+        rescale(&mut grid, (1.0 / absurd) as f32);
+        let back = gradient_per_world_unit(&grid).unwrap();
+        assert!((back - 1.0).abs() < 0.02, "{back}");
     }
 }
