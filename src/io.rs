@@ -38,6 +38,13 @@ pub fn find_array<'a>(
 
 use std::path::{Path, PathBuf};
 
+/// Whether `path`'s extension is one of `extensions` (lowercase), in any case.
+pub fn has_extension(path: &Path, extensions: &[&str]) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| extensions.iter().any(|x| e.eq_ignore_ascii_case(x)))
+}
+
 /// An error and its causes on one line, `error: cause: cause` (a cause whose text is
 /// already there is not repeated).
 pub fn error_chain(e: &dyn std::error::Error) -> String {

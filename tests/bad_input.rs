@@ -582,3 +582,40 @@ fn a_level_set_in_absurd_units_is_rescaled_not_emptied() {
         "{volume} against {sphere}"
     );
 }
+
+/// An output whose extension no writer knows is a usage error (exit 2) in every command,
+/// said before anything is read: `mesh` and `render` exited 1 after the work, `skin` 2.
+#[test]
+fn an_unknown_output_extension_is_a_usage_error_everywhere() {
+    let dir = common::scratch();
+    let input = dir.path().join("sphere.vdb");
+    write(
+        &input,
+        &Grid::level_set_sphere(0.5, [0.0; 3], 0.05, 3.0)
+            .unwrap()
+            .to_data()
+            .unwrap(),
+    );
+    let input = input.to_str().unwrap();
+    for (args, name) in [
+        (vec!["mesh", input, "out.stl"], "out.stl"),
+        (vec!["render", input, "out.tiff"], "out.tiff"),
+        (vec!["mesh", "missing.vdb", "out.stl"], "out.stl"),
+        (
+            vec![
+                "skin",
+                "--target",
+                input,
+                "--frames",
+                "1-1",
+                "--mesh",
+                "o.####.stl",
+            ],
+            "o.0000.stl",
+        ),
+    ] {
+        let out = activeskin(&args);
+        assert_fails(&out, 2, name, &args.join(" "));
+    }
+    assert!(!Path::new("out.stl").exists() && !Path::new("out.tiff").exists());
+}

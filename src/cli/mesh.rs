@@ -31,6 +31,12 @@ pub struct MeshArgs {
 }
 
 pub fn run(args: &MeshArgs) -> anyhow::Result<()> {
+    if !activeskin::io::mesh::is_written(&args.output) {
+        usage!(
+            "'{}': meshes must end in .obj or .ply",
+            args.output.display()
+        );
+    }
     let path = &args.input;
     let mut data = Grid::read(path, args.grid.as_deref())?.to_data()?;
     check_transform(path, &data)?;

@@ -77,6 +77,12 @@ pub fn parse_size(spec: &str) -> anyhow::Result<(usize, usize)> {
 }
 
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
+    if !activeskin::io::image::is_written(&args.output) {
+        usage!(
+            "'{}': renders must end in .exr or .png",
+            args.output.display()
+        );
+    }
     let size = parse_size(&args.size)?;
     let (target, dx) = read_target(&args.input, args.grid.as_deref(), args.iso)?;
     let frame = target.bounds();

@@ -93,10 +93,10 @@ impl Outputs {
     pub fn new(spec: &OutputSpec, (first, last): (i64, i64)) -> Result<Self, FrameError> {
         let usage = |m: String| Err(FrameError::Usage(m));
         if let Some(mesh) = &spec.mesh {
-            require_extension("--mesh", mesh, "meshes", &["obj", "ply"])?;
+            require_extension("--mesh", mesh, "meshes", crate::io::mesh::EXTENSIONS)?;
         }
         if let Some((render, _)) = &spec.render {
-            require_extension("--render", render, "renders", &["exr", "png"])?;
+            require_extension("--render", render, "renders", crate::io::image::EXTENSIONS)?;
         }
         let (out, mesh) = (spec.out.clone(), spec.mesh.clone());
         let render = spec.render.clone().map(|(p, size)| (p, size, None));
@@ -423,8 +423,7 @@ fn require_extension(
     extensions: &[&str],
 ) -> Result<(), FrameError> {
     let name = pattern.path(0);
-    let ext = name.extension().and_then(|e| e.to_str()).unwrap_or("");
-    if !extensions.iter().any(|e| ext.eq_ignore_ascii_case(e)) {
+    if !crate::io::has_extension(&name, extensions) {
         return Err(FrameError::Usage(format!(
             "{flag} '{}': {what} must end in .{}",
             name.display(),

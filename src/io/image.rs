@@ -27,6 +27,14 @@ pub enum ImageFault {
     Extension,
 }
 
+/// The extensions [`write`] knows, lowercase.
+pub const EXTENSIONS: &[&str] = &["exr", "png"];
+
+/// Whether `path` ends in one of [`EXTENSIONS`] (any case): checked before a run.
+pub fn is_written(path: &Path) -> bool {
+    super::has_extension(path, EXTENSIONS)
+}
+
 /// Writes by extension: `.exr` (RGBA, Z, N.X/N.Y/N.Z) or `.png` (beauty over grey).
 pub fn write(render: &Render, path: &Path) -> Result<(), RenderError> {
     let ext = path

@@ -38,6 +38,14 @@ impl MeshError {
     }
 }
 
+/// The extensions [`write`] knows, lowercase.
+pub const EXTENSIONS: &[&str] = &["obj", "ply"];
+
+/// Whether `path` ends in one of [`EXTENSIONS`] (any case): checked before a run.
+pub fn is_written(path: &Path) -> bool {
+    super::has_extension(path, EXTENSIONS)
+}
+
 /// OBJ or PLY by the file's extension.
 pub fn write(mesh: &Mesh, path: &Path) -> Result<(), MeshError> {
     match path
