@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use super::mesh::{write_records, write_with, MeshError};
 use super::particles::ParticleError;
@@ -139,20 +140,20 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, String> {
     let mut radii = radius.map(|_| Vec::with_capacity(capacity));
     let mut velocities = velocity.map(|_| Vec::with_capacity(capacity));
     let mut ids = id.map(|_| Vec::with_capacity(capacity));
-    let mut push = |row: &[f64]| {
-        positions.push(Vec3::new(row[x] as f32, row[y] as f32, row[z] as f32));
-        if let (Some(r), Some(radii)) = (radius, radii.as_mut()) {
-            radii.push(row[r] as f32);
-        }
-        if let (Some((a, b, c)), Some(v)) = (velocity, velocities.as_mut()) {
-            v.push(Vec3::new(row[a] as f32, row[b] as f32, row[c] as f32));
-        }
-        if let (Some(k), Some(ids)) = (id, ids.as_mut()) {
-            ids.push(row[k] as i64);
-        }
-    };
     match format {
         Encoding::Ascii => {
+            let mut push = |row: &[f64]| {
+                positions.push(Vec3::new(row[x] as f32, row[y] as f32, row[z] as f32));
+                if let (Some(r), Some(radii)) = (radius, radii.as_mut()) {
+                    radii.push(row[r] as f32);
+                }
+                if let (Some((a, b, c)), Some(v)) = (velocity, velocities.as_mut()) {
+                    v.push(Vec3::new(row[a] as f32, row[b] as f32, row[c] as f32));
+                }
+                if let (Some(k), Some(ids)) = (id, ids.as_mut()) {
+                    ids.push(row[k] as i64);
+                }
+            };
             let text = std::str::from_utf8(data).map_err(|_| "PLY body is not text")?;
             let mut rows = text.lines().filter(|l| !l.trim().is_empty());
             for i in 0..*count {
@@ -187,16 +188,35 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, String> {
                     data.len() / stride.max(1)
                 ));
             }
-            let mut row = vec![0.0f64; properties.len()];
-            for v in 0..*count {
-                let mut at = v * stride;
-                for (k, (_, ty)) in properties.iter().enumerate() {
-                    let raw = &data[at..at + sizes[k]];
-                    row[k] = scalar(ty, raw, format == Encoding::Little);
-                    at += sizes[k];
-                }
-                push(&row);
+            if *count > 0 && stride == 0 {
+                return Err("vertex element has no properties".into());
             }
+            // Fixed-size records: each column read on all threads, at its offset.
+            let little = format == Encoding::Little;
+            let offsets: Vec<usize> = sizes
+                .iter()
+                .scan(0, |at, &s| {
+                    *at += s;
+                    Some(*at - s)
+                })
+                .collect();
+            let body = &data[..stride * *count];
+            let rows = || body.par_chunks_exact(stride.max(1));
+            let kinds: Vec<Scalar> = properties
+                .iter()
+                .map(|p| Scalar::of(&p.1).expect("checked in the header"))
+                .collect();
+            let field = |record: &[u8], k: usize| kinds[k].read(&record[offsets[k]..], little);
+            positions = rows()
+                .map(|r| Vec3::new(field(r, x) as f32, field(r, y) as f32, field(r, z) as f32))
+                .collect();
+            radii = radius.map(|k| rows().map(|r| field(r, k) as f32).collect());
+            velocities = velocity.map(|(a, b, c)| {
+                rows()
+                    .map(|r| Vec3::new(field(r, a) as f32, field(r, b) as f32, field(r, c) as f32))
+                    .collect()
+            });
+            ids = id.map(|k| rows().map(|r| field(r, k) as i64).collect());
         }
     }
     Ok(Particles {
@@ -207,27 +227,58 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, String> {
     })
 }
 
-/// One binary PLY scalar as f64.
-fn scalar(ty: &str, raw: &[u8], little: bool) -> f64 {
-    macro_rules! num {
-        ($t:ty) => {{
-            let bytes = raw.try_into().expect("sized by type_size");
-            f64::from(if little {
-                <$t>::from_le_bytes(bytes)
-            } else {
-                <$t>::from_be_bytes(bytes)
-            })
-        }};
+/// A PLY scalar type, by its name (both spellings).
+#[derive(Clone, Copy)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    fn of(name: &str) -> Option<Scalar> {
+        Some(match name {
+            "char" | "int8" => Scalar::I8,
+            "uchar" | "uint8" => Scalar::U8,
+            "short" | "int16" => Scalar::I16,
+            "ushort" | "uint16" => Scalar::U16,
+            "int" | "int32" => Scalar::I32,
+            "uint" | "uint32" => Scalar::U32,
+            "float" | "float32" => Scalar::F32,
+            "double" | "float64" => Scalar::F64,
+            _ => return None,
+        })
     }
-    match ty {
-        "char" | "int8" => num!(i8),
-        "uchar" | "uint8" => num!(u8),
-        "short" | "int16" => num!(i16),
-        "ushort" | "uint16" => num!(u16),
-        "int" | "int32" => num!(i32),
-        "uint" | "uint32" => num!(u32),
-        "float" | "float32" => num!(f32),
-        _ => num!(f64),
+
+    /// The value at the start of `raw` (at least the type's size).
+    #[inline]
+    fn read(self, raw: &[u8], little: bool) -> f64 {
+        macro_rules! num {
+            ($t:ty) => {{
+                const N: usize = std::mem::size_of::<$t>();
+                let bytes: [u8; N] = raw[..N].try_into().expect("sized by the type");
+                f64::from(if little {
+                    <$t>::from_le_bytes(bytes)
+                } else {
+                    <$t>::from_be_bytes(bytes)
+                })
+            }};
+        }
+        match self {
+            Scalar::I8 => num!(i8),
+            Scalar::U8 => num!(u8),
+            Scalar::I16 => num!(i16),
+            Scalar::U16 => num!(u16),
+            Scalar::I32 => num!(i32),
+            Scalar::U32 => num!(u32),
+            Scalar::F32 => num!(f32),
+            Scalar::F64 => num!(f64),
+        }
     }
 }
 
