@@ -9,6 +9,7 @@ pub mod obj;
 pub mod particles;
 pub mod ply;
 pub mod png;
+mod scalar;
 pub mod text;
 #[cfg(feature = "vdb")]
 pub mod vdb;

@@ -25,6 +25,21 @@ fn sphere(dx: f32) -> GridData {
     sample::level_set(&sphere as &dyn Target, dx, 3.0)
 }
 
+/// `skin` on the level set `target` for frames 1–2, meshes into `mesh`, plus `extra`.
+fn skin_two_frames<'a>(target: &'a Path, mesh: &'a Path, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        "skin",
+        "--target",
+        target.to_str().unwrap(),
+        "--frames",
+        "1-2",
+        "--mesh",
+        mesh.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    args
+}
+
 fn write(path: &Path, data: &GridData) {
     let meta = FileMetadata {
         creator: "test".into(),
@@ -500,16 +515,7 @@ fn an_inside_reaching_past_the_leaves_is_closed_where_they_end() {
     );
     // The skin reads it alike.
     let skin = dir.path().join("skin.####.obj");
-    let out = common::activeskin_bounded(&[
-        "skin",
-        "--target",
-        file.to_str().unwrap(),
-        "--frames",
-        "1-2",
-        "--mesh",
-        skin.to_str().unwrap(),
-        "-q",
-    ]);
+    let out = common::activeskin_bounded(&skin_two_frames(&file, &skin, &["-q"]));
     common::assert_ok(&out);
     assert_eq!(common::assert_clean_meshes(dir.path()), 3);
 }
@@ -528,16 +534,7 @@ fn a_level_set_too_far_for_its_voxels_is_one_line() {
     assert_fails(&out, 1, "far.vdb", "mesh");
     assert!(common::stderr(&out).contains("32-bit positions do not resolve"));
     let skin = dir.path().join("s.####.obj");
-    let out = activeskin(&[
-        "skin",
-        "--target",
-        file.to_str().unwrap(),
-        "--frames",
-        "1-2",
-        "--mesh",
-        skin.to_str().unwrap(),
-        "-q",
-    ]);
+    let out = activeskin(&skin_two_frames(&file, &skin, &["-q"]));
     assert_fails(&out, 1, "far.vdb", "skin");
     assert!(common::stderr(&out).contains("32-bit positions do not resolve"));
     assert_eq!(names(dir.path()), vec!["far.vdb"]);
@@ -553,21 +550,11 @@ fn a_level_set_in_absurd_units_is_rescaled_not_emptied() {
         .unwrap()
         .to_data()
         .unwrap();
-    data.leaf_values.iter_mut().for_each(|v| *v *= 1e30);
-    data.tiles.iter_mut().for_each(|t| t.value *= 1e30);
-    data.background *= 1e30;
+    activeskin::volume::units::rescale(&mut data, 1e30);
     let file = dir.path().join("absurd.vdb");
     write(&file, &data);
     let mesh = dir.path().join("skin.####.obj");
-    let out = common::activeskin_bounded(&[
-        "skin",
-        "--target",
-        file.to_str().unwrap(),
-        "--frames",
-        "1-2",
-        "--mesh",
-        mesh.to_str().unwrap(),
-    ]);
+    let out = common::activeskin_bounded(&skin_two_frames(&file, &mesh, &[]));
     common::assert_ok(&out);
     let note = common::stderr(&out);
     assert!(

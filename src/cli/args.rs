@@ -95,7 +95,7 @@ impl PhysicsArgs {
 
     /// Checked parameters for a skin of voxel size `dx`.
     pub fn params(&self, default_dx: f32) -> anyhow::Result<SkinParams> {
-        if !self.fps.is_finite() || self.fps <= 0.0 {
+        if activeskin::frames::check_fps(self.fps).is_err() {
             usage!("--fps must be a positive number");
         }
         let dx = self.voxel_size.unwrap_or(default_dx);

@@ -20,6 +20,19 @@ use anyhow::Context;
 use glam::Vec3;
 use serde_json::json;
 
+/// Where a bench's data or tools are kept once made: the folder named by the environment
+/// variable `variable` when given and set, else `activeskin/{folder}` in the user's cache
+/// (XDG_CACHE_HOME or ~/.cache).
+fn cache_dir(variable: Option<&str>, folder: &str) -> Option<std::path::PathBuf> {
+    if let Some(dir) = variable.and_then(std::env::var_os) {
+        return Some(dir.into());
+    }
+    std::env::var_os("XDG_CACHE_HOME")
+        .map(std::path::PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| std::path::PathBuf::from(h).join(".cache")))
+        .map(|c| c.join("activeskin").join(folder))
+}
+
 /// Runs `command`, failing with its stderr; returns the wall time in seconds.
 fn timed(command: &mut std::process::Command) -> anyhow::Result<f64> {
     let start = std::time::Instant::now();

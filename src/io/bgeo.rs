@@ -7,6 +7,7 @@ use std::io::Read;
 
 use rayon::prelude::*;
 
+use super::scalar::Scalar;
 use super::PointArray;
 
 /// A BGEO file that cannot be read as points.
@@ -79,19 +80,14 @@ pub fn parse(bytes: &[u8], limit: u64) -> Result<BgeoPoints, BgeoError> {
     if points.saturating_mul(16) > bytes.len() {
         return Err(BgeoError::Truncated("the points"));
     }
-    #[derive(Clone, Copy)]
-    enum Kind {
-        Float,
-        Int,
-    }
     let mut layout = Vec::with_capacity(point_attributes.min(1024));
     for _ in 0..point_attributes {
         let length = usize::from(r.u16("an attribute's name")?);
         let name = String::from_utf8_lossy(r.take(length, "an attribute's name")?).into_owned();
         let components = usize::from(r.u16("an attribute")?);
         let kind = match r.i32("an attribute")? {
-            0 | 5 => Kind::Float,
-            1 => Kind::Int,
+            0 | 5 => Scalar::F32,
+            1 => Scalar::I32,
             other => {
                 return Err(BgeoError::Attribute {
                     name,
@@ -102,19 +98,8 @@ pub fn parse(bytes: &[u8], limit: u64) -> Result<BgeoPoints, BgeoError> {
         r.take(components * 4, "an attribute's default")?;
         layout.push((name, components, kind));
     }
-    let mut out = BgeoPoints {
-        positions: Vec::with_capacity(points),
-        attributes: layout
-            .iter()
-            .map(|(name, components, _)| PointArray {
-                name: name.clone(),
-                components: *components,
-                values: vec![0.0; points * components],
-            })
-            .collect(),
-    };
     // Fixed-size records, big endian: P as x y z w, then each attribute's components.
-    // Checked whole once, then read in parallel.
+    // Checked whole once, then read in parallel, a column at a time.
     let record = 16 + layout.iter().map(|(_, c, _)| 4 * c).sum::<usize>();
     let body = r.take(
         points
@@ -122,12 +107,12 @@ pub fn parse(bytes: &[u8], limit: u64) -> Result<BgeoPoints, BgeoError> {
             .ok_or(BgeoError::Truncated("the points"))?,
         "the points",
     )?;
-    let word = |b: &[u8], k: usize| [b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]];
-    out.positions = body
-        .par_chunks_exact(record)
+    let records = || body.par_chunks_exact(record);
+    let value = |b: &[u8], k: usize, kind: Scalar| kind.read(&b[4 * k..], true);
+    let positions = records()
         .map(|b| {
-            let p = [0, 1, 2].map(|k| f32::from_be_bytes(word(b, k)));
-            let w = f32::from_be_bytes(word(b, 3));
+            let p = [0, 1, 2].map(|k| value(b, k, Scalar::F32) as f32);
+            let w = value(b, 3, Scalar::F32) as f32;
             // Homogeneous, as Houdini's points are; partio writes w = 1.
             if w != 0.0 && w != 1.0 {
                 p.map(|c| c / w)
@@ -137,21 +122,28 @@ pub fn parse(bytes: &[u8], limit: u64) -> Result<BgeoPoints, BgeoError> {
         })
         .collect();
     let mut first = 4;
-    for (attribute, &(_, components, kind)) in out.attributes.iter_mut().zip(&layout) {
-        attribute
-            .values
+    let mut attributes = Vec::with_capacity(layout.len());
+    for (name, components, kind) in layout {
+        let mut values = vec![0.0; points * components];
+        values
             .par_chunks_exact_mut(components.max(1))
-            .zip(body.par_chunks_exact(record))
-            .for_each(|(values, b)| {
-                for (v, k) in values.iter_mut().zip(first..) {
-                    *v = match kind {
-                        Kind::Float => f64::from(f32::from_be_bytes(word(b, k))),
-                        Kind::Int => f64::from(i32::from_be_bytes(word(b, k))),
-                    };
+            .zip(records())
+            .for_each(|(row, b)| {
+                for (v, k) in row.iter_mut().zip(first..) {
+                    *v = value(b, k, kind);
                 }
             });
+        attributes.push(PointArray {
+            name,
+            components,
+            values,
+        });
         first += components;
     }
+    let out = BgeoPoints {
+        positions,
+        attributes,
+    };
     Ok(out)
 }
 

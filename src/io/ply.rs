@@ -8,6 +8,7 @@ use rayon::prelude::*;
 
 use super::mesh::{write_records, write_with, MeshError};
 use super::particles::ParticleError;
+use super::scalar::Scalar;
 use crate::mesh::Mesh;
 use crate::particles::Particles;
 
@@ -22,13 +23,17 @@ enum Encoding {
     Big,
 }
 
-/// The scalar types PLY names, and their sizes.
-fn type_size(name: &str) -> Option<usize> {
+/// A scalar type, by PLY's name for it (both spellings).
+fn scalar_type(name: &str) -> Option<Scalar> {
     Some(match name {
-        "char" | "uchar" | "int8" | "uint8" => 1,
-        "short" | "ushort" | "int16" | "uint16" => 2,
-        "int" | "uint" | "float" | "int32" | "uint32" | "float32" => 4,
-        "double" | "float64" => 8,
+        "char" | "int8" => Scalar::I8,
+        "uchar" | "uint8" => Scalar::U8,
+        "short" | "int16" => Scalar::I16,
+        "ushort" | "uint16" => Scalar::U16,
+        "int" | "int32" => Scalar::I32,
+        "uint" | "uint32" => Scalar::U32,
+        "float" | "float32" => Scalar::F32,
+        "double" | "float64" => Scalar::F64,
         _ => return None,
     })
 }
@@ -85,7 +90,7 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, String> {
             }
             ["property", ty, name] => {
                 let element = elements.last_mut().ok_or("property before any element")?;
-                if type_size(ty).is_none() {
+                if scalar_type(ty).is_none() {
                     return Err(format!("property {name}: unknown type '{ty}'"));
                 }
                 // Which of two would be meant cannot be known.
@@ -173,10 +178,12 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, String> {
             }
         }
         Encoding::Little | Encoding::Big => {
-            let sizes: Vec<usize> = properties
+            // Every vertex property's type is known (checked in the header; no lists).
+            let kinds: Vec<Scalar> = properties
                 .iter()
-                .map(|p| type_size(&p.1).unwrap_or(0))
+                .map(|p| scalar_type(&p.1).expect("checked in the header"))
                 .collect();
+            let sizes: Vec<usize> = kinds.iter().map(|k| k.size()).collect();
             let stride: usize = sizes.iter().sum();
             if stride
                 .checked_mul(*count)
@@ -192,7 +199,7 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, String> {
                 return Err("vertex element has no properties".into());
             }
             // Fixed-size records: each column read on all threads, at its offset.
-            let little = format == Encoding::Little;
+            let big = format == Encoding::Big;
             let offsets: Vec<usize> = sizes
                 .iter()
                 .scan(0, |at, &s| {
@@ -202,11 +209,7 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, String> {
                 .collect();
             let body = &data[..stride * *count];
             let rows = || body.par_chunks_exact(stride.max(1));
-            let kinds: Vec<Scalar> = properties
-                .iter()
-                .map(|p| Scalar::of(&p.1).expect("checked in the header"))
-                .collect();
-            let field = |record: &[u8], k: usize| kinds[k].read(&record[offsets[k]..], little);
+            let field = |record: &[u8], k: usize| kinds[k].read(&record[offsets[k]..], big);
             positions = rows()
                 .map(|r| Vec3::new(field(r, x) as f32, field(r, y) as f32, field(r, z) as f32))
                 .collect();
@@ -225,61 +228,6 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, String> {
         velocities,
         ids,
     })
-}
-
-/// A PLY scalar type, by its name (both spellings).
-#[derive(Clone, Copy)]
-enum Scalar {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    F32,
-    F64,
-}
-
-impl Scalar {
-    fn of(name: &str) -> Option<Scalar> {
-        Some(match name {
-            "char" | "int8" => Scalar::I8,
-            "uchar" | "uint8" => Scalar::U8,
-            "short" | "int16" => Scalar::I16,
-            "ushort" | "uint16" => Scalar::U16,
-            "int" | "int32" => Scalar::I32,
-            "uint" | "uint32" => Scalar::U32,
-            "float" | "float32" => Scalar::F32,
-            "double" | "float64" => Scalar::F64,
-            _ => return None,
-        })
-    }
-
-    /// The value at the start of `raw` (at least the type's size).
-    #[inline]
-    fn read(self, raw: &[u8], little: bool) -> f64 {
-        macro_rules! num {
-            ($t:ty) => {{
-                const N: usize = std::mem::size_of::<$t>();
-                let bytes: [u8; N] = raw[..N].try_into().expect("sized by the type");
-                f64::from(if little {
-                    <$t>::from_le_bytes(bytes)
-                } else {
-                    <$t>::from_be_bytes(bytes)
-                })
-            }};
-        }
-        match self {
-            Scalar::I8 => num!(i8),
-            Scalar::U8 => num!(u8),
-            Scalar::I16 => num!(i16),
-            Scalar::U16 => num!(u16),
-            Scalar::I32 => num!(i32),
-            Scalar::U32 => num!(u32),
-            Scalar::F32 => num!(f32),
-            Scalar::F64 => num!(f64),
-        }
-    }
 }
 
 /// Writes positions as a binary little-endian PLY (`x y z` floats), atomically.
@@ -321,15 +269,16 @@ pub fn write_particles(path: &Path, particles: &Particles) -> Result<(), Particl
     header += "end_header\n";
     let mut bytes = header.into_bytes();
     for i in 0..n {
-        let mut floats = particles.positions[i].to_array().to_vec();
+        let mut put = |c: f32| bytes.extend_from_slice(&c.to_le_bytes());
+        particles.positions[i]
+            .to_array()
+            .into_iter()
+            .for_each(&mut put);
         if let Some(v) = &particles.velocities {
-            floats.extend(v[i].to_array());
+            v[i].to_array().into_iter().for_each(&mut put);
         }
         if let Some(r) = &particles.radii {
-            floats.push(r[i]);
-        }
-        for c in floats {
-            bytes.extend_from_slice(&c.to_le_bytes());
+            put(r[i]);
         }
         if let Some(ids) = &particles.ids {
             if wide_ids {

@@ -64,9 +64,9 @@ fn parse_text(bytes: &[u8]) -> Result<Particles, String> {
     if with_radius != 0 && with_radius != parsed.len() {
         return Err("some lines have a radius and others not".into());
     }
-    let column = |present: bool, get: &dyn Fn(&Row) -> bool| present && parsed.iter().all(get);
-    let has_velocity = column(!parsed.is_empty(), &|r| r.velocity.is_some());
-    let has_id = column(!parsed.is_empty(), &|r| r.id.is_some());
+    // Velocity and id columns are the header's: every row has them, or none.
+    let has_velocity = parsed.first().is_some_and(|r| r.velocity.is_some());
+    let has_id = parsed.first().is_some_and(|r| r.id.is_some());
     Ok(Particles {
         positions: parsed.iter().map(|r| r.position).collect(),
         radii: (with_radius != 0).then(|| parsed.iter().filter_map(|r| r.radius).collect()),

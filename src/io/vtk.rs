@@ -4,6 +4,7 @@
 //! ParaView (ASCII or binary, version 5.1 `OFFSETS`/`CONNECTIVITY` cells, `METADATA`).
 //! Only the points and their point data are kept; cells are read past.
 
+use super::scalar::Scalar;
 use super::PointArray;
 
 /// A legacy VTK file that cannot be read as points.
@@ -78,7 +79,7 @@ pub fn parse(bytes: &[u8]) -> Result<VtkPoints, VtkError> {
             }
             "POINTS" => {
                 let n = count(1, "POINTS")?;
-                let kind = ValueType::parse(words.get(2).copied(), &r)?;
+                let kind = value_type(words.get(2).copied(), &r)?;
                 let values = r.values(
                     n.checked_mul(3).ok_or_else(|| r.too_many())?,
                     kind,
@@ -93,7 +94,7 @@ pub fn parse(bytes: &[u8]) -> Result<VtkPoints, VtkError> {
                 if r.peek_keyword()?.as_deref() == Some("OFFSETS") {
                     for part in ["OFFSETS", "CONNECTIVITY"] {
                         let header = r.next_keyword_line()?.ok_or_else(|| r.truncated(part))?;
-                        let kind = ValueType::parse(header.split_whitespace().nth(1), &r)?;
+                        let kind = value_type(header.split_whitespace().nth(1), &r)?;
                         // Version 5.1 counts the offsets (cells + 1), then the connectivity.
                         let n = if part == "OFFSETS" {
                             count(1, &keyword)?
@@ -103,12 +104,12 @@ pub fn parse(bytes: &[u8]) -> Result<VtkPoints, VtkError> {
                         r.values(n, kind, part)?;
                     }
                 } else {
-                    r.values(size, ValueType::I32, &keyword)?;
+                    r.values(size, Scalar::I32, &keyword)?;
                 }
             }
             "CELL_TYPES" => {
                 let n = count(1, "CELL_TYPES")?;
-                r.values(n, ValueType::I32, "CELL_TYPES")?;
+                r.values(n, Scalar::I32, "CELL_TYPES")?;
             }
             "POINT_DATA" | "CELL_DATA" => in_point_data = keyword == "POINT_DATA",
             "FIELD" => {
@@ -122,7 +123,7 @@ pub fn parse(bytes: &[u8]) -> Result<VtkPoints, VtkError> {
                         })
                     };
                     let (components, tuples) = (number(1)?, number(2)?);
-                    let kind = ValueType::parse(w.get(3).copied(), &r)?;
+                    let kind = value_type(w.get(3).copied(), &r)?;
                     let n = components.checked_mul(tuples).ok_or_else(|| r.too_many())?;
                     let values = r.values(n, kind, w[0])?;
                     if in_point_data {
@@ -142,7 +143,7 @@ pub fn parse(bytes: &[u8]) -> Result<VtkPoints, VtkError> {
                 let points = out.positions.len();
                 let (components, kind) = match keyword.as_str() {
                     "SCALARS" => {
-                        let kind = ValueType::parse(words.get(2).copied(), &r)?;
+                        let kind = value_type(words.get(2).copied(), &r)?;
                         let components = match words.get(3) {
                             Some(c) => c.parse().map_err(|_| {
                                 r.syntax(format!("SCALARS {name}: bad component count"))
@@ -156,14 +157,10 @@ pub fn parse(bytes: &[u8]) -> Result<VtkPoints, VtkError> {
                     }
                     "COLOR_SCALARS" => (
                         count(2, "COLOR_SCALARS")?,
-                        if r.binary {
-                            ValueType::U8
-                        } else {
-                            ValueType::F32
-                        },
+                        if r.binary { Scalar::U8 } else { Scalar::F32 },
                     ),
-                    "TENSORS" => (9, ValueType::parse(words.get(2).copied(), &r)?),
-                    _ => (3, ValueType::parse(words.get(2).copied(), &r)?),
+                    "TENSORS" => (9, value_type(words.get(2).copied(), &r)?),
+                    _ => (3, value_type(words.get(2).copied(), &r)?),
                 };
                 let values = r.values(
                     points.checked_mul(components).ok_or_else(|| r.too_many())?,
@@ -180,11 +177,7 @@ pub fn parse(bytes: &[u8]) -> Result<VtkPoints, VtkError> {
             }
             "LOOKUP_TABLE" => {
                 let n = count(2, "LOOKUP_TABLE")?;
-                let kind = if r.binary {
-                    ValueType::U8
-                } else {
-                    ValueType::F32
-                };
+                let kind = if r.binary { Scalar::U8 } else { Scalar::F32 };
                 r.values(n * 4, kind, "LOOKUP_TABLE")?;
             }
             // VTK 9's information keys: lines up to a blank one.
@@ -198,66 +191,26 @@ pub fn parse(bytes: &[u8]) -> Result<VtkPoints, VtkError> {
     Ok(out)
 }
 
-#[derive(Clone, Copy)]
-enum ValueType {
-    U8,
-    I8,
-    U16,
-    I16,
-    U32,
-    I32,
-    U64,
-    I64,
-    F32,
-    F64,
-}
-
-impl ValueType {
-    fn parse(word: Option<&str>, r: &Reader) -> Result<Self, VtkError> {
-        Ok(match word.map(str::to_ascii_lowercase).as_deref() {
-            Some("unsigned_char" | "bit") => Self::U8,
-            Some("char") => Self::I8,
-            Some("unsigned_short") => Self::U16,
-            Some("short") => Self::I16,
-            Some("unsigned_int") => Self::U32,
-            Some("int") => Self::I32,
-            Some("unsigned_long" | "vtktypeuint64") => Self::U64,
-            Some("long" | "vtktypeint64" | "vtkidtype") => Self::I64,
-            Some("float") => Self::F32,
-            Some("double") => Self::F64,
-            other => {
-                return Err(r.syntax(format!(
-                    "data type '{}' is not one VTK writes",
-                    other.unwrap_or("")
-                )))
-            }
-        })
-    }
-
-    fn size(self) -> usize {
-        match self {
-            Self::U8 | Self::I8 => 1,
-            Self::U16 | Self::I16 => 2,
-            Self::U32 | Self::I32 | Self::F32 => 4,
-            Self::U64 | Self::I64 | Self::F64 => 8,
+/// A data type, by legacy VTK's name for it.
+fn value_type(word: Option<&str>, r: &Reader) -> Result<Scalar, VtkError> {
+    Ok(match word.map(str::to_ascii_lowercase).as_deref() {
+        Some("unsigned_char" | "bit") => Scalar::U8,
+        Some("char") => Scalar::I8,
+        Some("unsigned_short") => Scalar::U16,
+        Some("short") => Scalar::I16,
+        Some("unsigned_int") => Scalar::U32,
+        Some("int") => Scalar::I32,
+        Some("unsigned_long" | "vtktypeuint64") => Scalar::U64,
+        Some("long" | "vtktypeint64" | "vtkidtype") => Scalar::I64,
+        Some("float") => Scalar::F32,
+        Some("double") => Scalar::F64,
+        other => {
+            return Err(r.syntax(format!(
+                "data type '{}' is not one VTK writes",
+                other.unwrap_or("")
+            )))
         }
-    }
-
-    /// A big-endian value (legacy VTK's binary order).
-    fn read(self, b: &[u8]) -> f64 {
-        match self {
-            Self::U8 => f64::from(b[0]),
-            Self::I8 => f64::from(b[0] as i8),
-            Self::U16 => f64::from(u16::from_be_bytes([b[0], b[1]])),
-            Self::I16 => f64::from(i16::from_be_bytes([b[0], b[1]])),
-            Self::U32 => f64::from(u32::from_be_bytes(b[..4].try_into().unwrap())),
-            Self::I32 => f64::from(i32::from_be_bytes(b[..4].try_into().unwrap())),
-            Self::U64 => u64::from_be_bytes(b[..8].try_into().unwrap()) as f64,
-            Self::I64 => i64::from_be_bytes(b[..8].try_into().unwrap()) as f64,
-            Self::F32 => f64::from(f32::from_be_bytes(b[..4].try_into().unwrap())),
-            Self::F64 => f64::from_be_bytes(b[..8].try_into().unwrap()),
-        }
-    }
+    })
 }
 
 struct Reader<'a> {
@@ -328,14 +281,14 @@ impl Reader<'_> {
 
     /// `n` values of `kind` for the section `what`: raw big-endian bytes in a binary file
     /// (then the line's end), whitespace-separated numbers in an ASCII one.
-    fn values(&mut self, n: usize, kind: ValueType, what: &str) -> Result<Vec<f64>, VtkError> {
+    fn values(&mut self, n: usize, kind: Scalar, what: &str) -> Result<Vec<f64>, VtkError> {
         if self.binary {
             let size = n.checked_mul(kind.size()).ok_or_else(|| self.too_many())?;
             let end = self.at.checked_add(size).filter(|&e| e <= self.bytes.len());
             let end = end.ok_or_else(|| self.truncated(what))?;
             let values = self.bytes[self.at..end]
                 .chunks_exact(kind.size())
-                .map(|b| kind.read(b))
+                .map(|b| kind.read(b, true))
                 .collect();
             self.at = end;
             // The newline closing the block, when there is one.

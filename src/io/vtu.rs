@@ -11,6 +11,7 @@ use rayon::prelude::*;
 
 use quick_xml::events::{BytesStart, Event};
 
+use super::scalar::Scalar;
 use super::PointArray;
 
 /// A VTK XML file that cannot be read as points.
@@ -70,7 +71,7 @@ enum Compressor {
 /// A `<DataArray>` of the point data or the points, before its values are decoded.
 struct ArrayTag {
     name: String,
-    kind: Kind,
+    kind: Scalar,
     components: usize,
     format: Format,
     /// Appended arrays: where the array starts in the appended data.
@@ -85,72 +86,21 @@ enum Format {
     Appended,
 }
 
-/// A DataArray's element type.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Kind {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    I64,
-    U64,
-    F32,
-    F64,
-}
-
-impl Kind {
-    fn parse(name: &str) -> Option<Kind> {
-        Some(match name {
-            "Int8" | "Char" => Kind::I8,
-            "UInt8" | "UnsignedChar" => Kind::U8,
-            "Int16" | "Short" => Kind::I16,
-            "UInt16" | "UnsignedShort" => Kind::U16,
-            "Int32" | "Int" => Kind::I32,
-            "UInt32" | "UnsignedInt" => Kind::U32,
-            "Int64" | "Long" | "IdType" => Kind::I64,
-            "UInt64" | "UnsignedLong" => Kind::U64,
-            "Float32" | "Float" => Kind::F32,
-            "Float64" | "Double" => Kind::F64,
-            _ => return None,
-        })
-    }
-
-    fn size(self) -> usize {
-        match self {
-            Kind::I8 | Kind::U8 => 1,
-            Kind::I16 | Kind::U16 => 2,
-            Kind::I32 | Kind::U32 | Kind::F32 => 4,
-            Kind::I64 | Kind::U64 | Kind::F64 => 8,
-        }
-    }
-
-    /// The value of one element's bytes (in the file's byte order).
-    fn value(self, b: &[u8], big_endian: bool) -> f64 {
-        macro_rules! num {
-            ($t:ty) => {{
-                let a = b.try_into().expect("element size");
-                if big_endian {
-                    <$t>::from_be_bytes(a) as f64
-                } else {
-                    <$t>::from_le_bytes(a) as f64
-                }
-            }};
-        }
-        match self {
-            Kind::I8 => num!(i8),
-            Kind::U8 => num!(u8),
-            Kind::I16 => num!(i16),
-            Kind::U16 => num!(u16),
-            Kind::I32 => num!(i32),
-            Kind::U32 => num!(u32),
-            Kind::I64 => num!(i64),
-            Kind::U64 => num!(u64),
-            Kind::F32 => num!(f32),
-            Kind::F64 => num!(f64),
-        }
-    }
+/// An array's element type, by VTK XML's name for it (both spellings).
+fn scalar_type(name: &str) -> Option<Scalar> {
+    Some(match name {
+        "Int8" | "Char" => Scalar::I8,
+        "UInt8" | "UnsignedChar" => Scalar::U8,
+        "Int16" | "Short" => Scalar::I16,
+        "UInt16" | "UnsignedShort" => Scalar::U16,
+        "Int32" | "Int" => Scalar::I32,
+        "UInt32" | "UnsignedInt" => Scalar::U32,
+        "Int64" | "Long" | "IdType" => Scalar::I64,
+        "UInt64" | "UnsignedLong" => Scalar::U64,
+        "Float32" | "Float" => Scalar::F32,
+        "Float64" | "Double" => Scalar::F64,
+        _ => return None,
+    })
 }
 
 /// One `<Piece>`'s point count and the arrays read in it.
@@ -382,7 +332,7 @@ fn read_layout(e: &BytesStart, limit: u64) -> Result<Layout, VtuError> {
 fn array_tag(e: &BytesStart) -> Result<ArrayTag, VtuError> {
     let name = attribute(e, "Name")?.unwrap_or_default();
     let kind_name = attribute(e, "type")?.unwrap_or_default();
-    let kind = Kind::parse(&kind_name).ok_or_else(|| VtuError::Array {
+    let kind = scalar_type(&kind_name).ok_or_else(|| VtuError::Array {
         name: name.clone(),
         message: format!("type '{kind_name}' is not a number type"),
     })?;
@@ -513,7 +463,7 @@ fn decode(
     let size = tag.kind.size();
     Ok(raw[..bytes]
         .chunks_exact(size)
-        .map(|b| tag.kind.value(b, layout.big_endian))
+        .map(|b| tag.kind.read(b, layout.big_endian))
         .collect())
 }
 

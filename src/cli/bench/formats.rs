@@ -28,20 +28,10 @@ const FILES: &[(&str, &str)] = &[
     ("frame.json", "JSON (splashsurf)"),
 ];
 
-/// Where the frames are written once: `ACTIVESKIN_FORMATS_CACHE`, else the user's cache.
-fn cache_dir() -> Option<PathBuf> {
-    if let Some(dir) = std::env::var_os("ACTIVESKIN_FORMATS_CACHE") {
-        return Some(PathBuf::from(dir));
-    }
-    std::env::var_os("XDG_CACHE_HOME")
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))
-        .map(|c| c.join("activeskin/formats"))
-}
-
 /// The frames, written now when missing; else why they cannot be.
 fn frames() -> anyhow::Result<PathBuf> {
-    let dir = cache_dir().context("no HOME to cache the frames in")?;
+    let dir = super::cache_dir(Some("ACTIVESKIN_FORMATS_CACHE"), "formats")
+        .context("no HOME to cache the frames in")?;
     if dir.join("done").is_file() {
         return Ok(dir);
     }

@@ -51,11 +51,7 @@ fn splashsurf(given: Option<&Path>) -> Result<PathBuf, String> {
     if let Some(path) = on_path {
         return Ok(path);
     }
-    let cache = std::env::var_os("XDG_CACHE_HOME")
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))
-        .ok_or("no HOME to cache it in")?
-        .join("activeskin/splashsurf");
+    let cache = super::cache_dir(None, "splashsurf").ok_or("no HOME to cache it in")?;
     let binary = cache.join("bin/splashsurf");
     if binary.is_file() {
         return Ok(binary);

@@ -29,21 +29,10 @@ use super::timed;
 /// The cache's file names, frame numbers unpadded as SPlisHSPlasH writes them.
 const STEM: &str = "dam_break_";
 
-/// Where the cache is looked for and baked: `ACTIVESKIN_SPH_CACHE`, else the user's cache
-/// folder.
-fn cache_dir() -> Option<PathBuf> {
-    if let Some(dir) = std::env::var_os("ACTIVESKIN_SPH_CACHE") {
-        return Some(PathBuf::from(dir));
-    }
-    std::env::var_os("XDG_CACHE_HOME")
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))
-        .map(|c| c.join("activeskin/sph/dam_break"))
-}
-
 /// The baked cache, baked now when missing and the bake can run; else why not.
 fn cache() -> Result<(PathBuf, usize, f32), String> {
-    let dir = cache_dir().ok_or("no HOME to cache it in")?;
+    let dir = super::cache_dir(Some("ACTIVESKIN_SPH_CACHE"), "sph/dam_break")
+        .ok_or("no HOME to cache it in")?;
     let done = dir.join("done");
     if !done.is_file() {
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/sph/bake_dam_break.py");
