@@ -109,6 +109,22 @@ impl<'t> FrameInput<'t> {
     }
 }
 
+/// What the frame before an interval leaves it: the velocity then and the volume its
+/// target enclosed.
+struct Before<'t> {
+    flow: Option<Box<dyn Flow + 't>>,
+    volume: Option<f64>,
+}
+
+impl<'t> Before<'t> {
+    fn of(input: FrameInput<'t>) -> Self {
+        Before {
+            volume: input.target.volume(),
+            flow: input.flow,
+        }
+    }
+}
+
 /// Runs frames `first..=last`: frame `first` is the starting skin, each later frame
 /// advances 1/`fps` seconds toward `input_at(frame)`'s target, carried by the velocities
 /// of the frames at the ends of the interval as `timing` says. Frames
@@ -152,15 +168,16 @@ pub fn run<'t>(
             start = frame + 1;
         }
     }
-    // The velocity at the start of the interval being advanced: read again after a resume
-    // (and for the first interval), as an uninterrupted run has it from the frame before —
-    // even when this frame has none (an empty frame of a cache whose velocity the
-    // interval still uses).
-    let mut previous: Option<Option<Box<dyn Flow + 't>>> = None;
+    // The velocity at the start of the interval being advanced, and the volume its target
+    // enclosed: read again after a resume (and for the first interval), as an
+    // uninterrupted run has them from the frame before — even when this frame has no
+    // velocity (an empty frame of a cache whose velocity the interval still uses).
+    let mut previous: Option<Before<'t>> = None;
     for frame in start..=last {
         let started = Instant::now();
         // The volume the frame's input holds, given back as the frame ends.
         let mut hold = None;
+        let duration = 1.0 / fps;
         let substeps = if frame == first {
             0
         } else {
@@ -168,23 +185,40 @@ pub fn run<'t>(
             let stepped = match &input.carried {
                 Some(map) => {
                     // The flow map carries the skin; the attraction corrects the shape.
-                    skin.carry(&**map, (1.0 / fps) as f32);
-                    skin.advance(&*input.target, 1.0 / fps)
+                    skin.carry(&**map, duration as f32);
+                    skin.advance(&*input.target, duration)
                 }
                 None => {
-                    let before = match previous.take() {
-                        Some(flow) => flow,
-                        None => input_at(frame - 1)?.flow,
+                    let Before {
+                        flow: before,
+                        volume: volume_before,
+                    } = match previous.take() {
+                        Some(previous) => previous,
+                        None => Before::of(input_at(frame - 1)?),
                     };
                     let mut mean = None;
                     let flow = timing.interval(before.as_deref(), input.flow.as_deref(), &mut mean);
-                    skin.advance_in_flow(&*input.target, flow, 1.0 / fps)
+                    match flow {
+                        // One trace over the frame, then the attraction.
+                        Some(flow) => {
+                            let gain = volume_before
+                                .zip(input.target.volume())
+                                .map(|(before, now)| now - before);
+                            match skin.carry_in_flow(flow, duration as f32, gain) {
+                                Ok(()) => skin.advance(&*input.target, duration),
+                                Err(stopped) => crate::skin::StepStats {
+                                    stopped: Some(stopped),
+                                    ..skin.stats()
+                                },
+                            }
+                        }
+                        None => skin.advance(&*input.target, duration),
+                    }
                 }
             };
             if let Some(stopped) = stepped.stopped {
                 return Err(FrameError::Data(format!(
-                    "frame {frame} ({:.3e} s at {fps} fps) {stopped}",
-                    1.0 / fps
+                    "frame {frame} ({duration:.3e} s at {fps} fps) {stopped}"
                 )));
             }
             let substeps = stepped.substeps;
@@ -192,7 +226,7 @@ pub fn run<'t>(
                 skin.seed(&*input.target);
             }
             hold = input.volume;
-            previous = Some(input.flow);
+            previous = Some(Before::of(input));
             substeps
         };
         let level_set = skin.settle_holding(hold);

@@ -64,6 +64,24 @@ impl Mesh {
             .fold((0.0, 0.0), |(a, v), &(pa, pv)| (a + pa, v + pv))
     }
 
+    /// The flux of `velocity` out through the surface, ∮ v·n dA (volume per unit time),
+    /// each triangle's velocity read at its centroid; in fixed chunks, as
+    /// [`Mesh::area_and_volume`], for the same bits on every run.
+    pub fn flux(&self, velocity: impl Fn(Vec3) -> Vec3 + Sync) -> f64 {
+        let partial: Vec<f64> = self
+            .triangles
+            .par_chunks(4096)
+            .map(|chunk| {
+                chunk.iter().fold(0.0, |flux, t| {
+                    let [a, b, c] = self.corners(t);
+                    let area_normal = 0.5 * (b - a).cross(c - a);
+                    flux + f64::from(velocity((a + b + c) / 3.0).dot(area_normal))
+                })
+            })
+            .collect();
+        partial.iter().sum()
+    }
+
     /// χ = V − E + F over the vertices the triangles use.
     pub fn euler_characteristic(&self) -> i64 {
         let mut used = vec![false; self.positions.len()];

@@ -38,6 +38,11 @@ pub trait Target: Sync {
     fn parts(&self) -> Vec<Aabb> {
         vec![self.bounds()]
     }
+    /// The volume it encloses, world units, where that is cheap to know (a level set's
+    /// voxels): a frame carried by a velocity follows its change ([`crate::skin::Skin::carry_in_flow`]).
+    fn volume(&self) -> Option<f64> {
+        None
+    }
 }
 
 impl<T: Target + ?Sized> Target for &T {
@@ -52,6 +57,9 @@ impl<T: Target + ?Sized> Target for &T {
     }
     fn parts(&self) -> Vec<Aabb> {
         (**self).parts()
+    }
+    fn volume(&self) -> Option<f64> {
+        (**self).volume()
     }
 }
 
@@ -68,6 +76,9 @@ impl<T: Target + ?Sized + Send> Target for std::sync::Arc<T> {
     fn parts(&self) -> Vec<Aabb> {
         (**self).parts()
     }
+    fn volume(&self) -> Option<f64> {
+        (**self).volume()
+    }
 }
 
 impl<T: Target + ?Sized> Target for Box<T> {
@@ -82,6 +93,9 @@ impl<T: Target + ?Sized> Target for Box<T> {
     }
     fn parts(&self) -> Vec<Aabb> {
         (**self).parts()
+    }
+    fn volume(&self) -> Option<f64> {
+        (**self).volume()
     }
 }
 

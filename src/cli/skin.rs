@@ -249,7 +249,7 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
             }
             noted = true;
         };
-        let flow = velocity.flow(&path, frame, &mut note)?;
+        let flow = velocity.flow(&path, frame, 1.0 / args.physics.fps, &mut note)?;
         Ok(FrameInput {
             target,
             flow: flow.map(|f| Box::new(f) as Box<dyn Flow>),

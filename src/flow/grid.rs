@@ -13,6 +13,10 @@ use crate::volume::{VectorGrid, LEAF_VOXELS};
 /// neighbours: the skin's band reaches three voxels past the surface.
 pub const EXTENSION_LAYERS: u32 = 3;
 
+/// Layers added at most for the motion over a frame ([`GridFlow::new`]): a skin carried
+/// further than that in a frame is left to the attraction and the seeding.
+pub const MAX_MOTION_LAYERS: u32 = 61;
+
 /// A velocity grid, world units per second after `scale`.
 pub struct GridFlow {
     /// The voxels in blocks of 8³: a sample's eight corners are mostly one lookup.
@@ -41,10 +45,13 @@ impl VelocityBlock {
 
 impl GridFlow {
     /// The grid's active voxels and tiles times `scale`, extended by
-    /// [`EXTENSION_LAYERS`]; tiles wider than 64 voxels are refused (a uniform velocity
-    /// over a region that size is better given as a rigid motion), and so are velocities
-    /// that are NaN or infinite.
-    pub fn new(grid: &VectorGrid, scale: f32) -> Result<Self, String> {
+    /// [`EXTENSION_LAYERS`] and by as many more as its fastest voxel travels in
+    /// `duration` seconds (at most [`MAX_MOTION_LAYERS`]): a frame's carry traces each
+    /// node of the skin's new band back from where the liquid went, beyond the voxels a
+    /// solver stores (a FLIP cache's velocity stops at its liquid). Tiles wider than 64
+    /// voxels are refused (a uniform velocity over a region that size is better given as
+    /// a rigid motion), and so are velocities that are NaN or infinite.
+    pub fn new(grid: &VectorGrid, scale: f32, duration: f64) -> Result<Self, String> {
         let mut voxels = HashMap::new();
         for (leaf, origin) in grid.leaf_origins.iter().enumerate() {
             let origin = IVec3::from_array(*origin);
@@ -84,7 +91,15 @@ impl GridFlow {
                 if scale == 1.0 { "" } else { " after the scale" }
             ));
         }
-        extend(&mut voxels, EXTENSION_LAYERS);
+        let fastest = voxels.values().fold(0.0f32, |m, v| m.max(v.length()));
+        let voxel = grid.transform.voxel_size();
+        let travelled = (f64::from(fastest) * duration / voxel).ceil();
+        let motion = if travelled.is_finite() {
+            travelled.clamp(0.0, f64::from(MAX_MOTION_LAYERS)) as u32
+        } else {
+            MAX_MOTION_LAYERS
+        };
+        extend(&mut voxels, EXTENSION_LAYERS + motion);
         // OpenVDB's row-vector matrix read column-major is the column-vector map.
         let to_index = DMat4::from_cols_array(&grid.transform.matrix).inverse();
         if !to_index.is_finite() {
@@ -180,9 +195,11 @@ fn extend(voxels: &mut HashMap<IVec3, Vec3>, layers: u32) {
         IVec3::NEG_Z,
         IVec3::Z,
     ];
+    // Each ring grows from the one before: a deep extension costs its own voxels only.
+    let mut last: Vec<IVec3> = voxels.keys().copied().collect();
     for _ in 0..layers {
-        let ring: HashSet<IVec3> = voxels
-            .keys()
+        let ring: HashSet<IVec3> = last
+            .iter()
             .flat_map(|&v| FACES.map(|f| v + f))
             .filter(|n| !voxels.contains_key(n))
             .collect();
@@ -199,6 +216,7 @@ fn extend(voxels: &mut HashMap<IVec3, Vec3>, layers: u32) {
                 (n, sum / count as f32)
             })
             .collect();
+        last = added.iter().map(|&(n, _)| n).collect();
         voxels.extend(added);
     }
 }
@@ -252,13 +270,14 @@ mod tests {
         let field = |p: Vec3| Vec3::new(0.8 * p.x - p.y, p.x + 0.5 * p.y, 0.5 * p.x + p.z - 0.2);
         for staggered in [false, true] {
             let grid = sampled(field, 32, 0.05, staggered);
-            let flow = GridFlow::new(&grid, 1.0).unwrap();
+            let flow = GridFlow::new(&grid, 1.0, 0.0).unwrap();
             let wrong = GridFlow::new(
                 &VectorGrid {
                     staggered: !staggered,
                     ..grid.clone()
                 },
                 1.0,
+                0.0,
             )
             .unwrap();
             for p in [Vec3::new(0.5, 0.7, 0.9), Vec3::new(1.03, 0.41, 0.77)] {
@@ -272,11 +291,28 @@ mod tests {
     #[test]
     fn velocity_is_extended_past_the_active_voxels() {
         let field = |_: Vec3| Vec3::new(1.0, 2.0, 3.0);
-        let flow = GridFlow::new(&sampled(field, 16, 0.1, false), 2.0).unwrap();
+        let flow = GridFlow::new(&sampled(field, 16, 0.1, false), 2.0, 0.0).unwrap();
         // Two voxels past the grid's last voxel (index 15): carried by the extension.
         let outside = Vec3::new(1.7, 0.5, 0.5);
         assert!((flow.velocity(outside) - Vec3::new(2.0, 4.0, 6.0)).length() < 1e-5);
+        // Ten voxels past: beyond the fixed layers, so still.
+        let further = Vec3::new(2.5, 0.5, 0.5);
+        assert_eq!(flow.velocity(further), Vec3::ZERO);
         // Far away: nothing.
         assert_eq!(flow.velocity(Vec3::splat(5.0)), Vec3::ZERO);
+        // Over a frame of 0.1 s the fastest voxel travels 7.5 voxels (|v| = 7.48 m/s at
+        // Δx 0.1): the extension follows it, so the ten-voxel point moves, and one a
+        // hundred voxels out is still left alone.
+        let frame = GridFlow::new(&sampled(field, 16, 0.1, false), 2.0, 0.1).unwrap();
+        assert!((frame.velocity(further) - Vec3::new(2.0, 4.0, 6.0)).length() < 1e-5);
+        assert_eq!(frame.velocity(Vec3::splat(11.0)), Vec3::ZERO);
+        // A runaway voxel extends by the cap, not by its speed.
+        let runaway = GridFlow::new(&sampled(field, 16, 0.1, false), 1e6, 0.1).unwrap();
+        let past_cap = Vec3::new(
+            1.5 + 0.1 * f32::from(EXTENSION_LAYERS as u16 + MAX_MOTION_LAYERS as u16 + 2),
+            0.5,
+            0.5,
+        );
+        assert_eq!(runaway.velocity(past_cap), Vec3::ZERO);
     }
 }

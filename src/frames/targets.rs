@@ -233,12 +233,14 @@ pub struct VelocityInput {
 pub const VELOCITY_NAMES: [&str; 3] = ["vel", "v", "velocity"];
 
 impl VelocityInput {
-    /// The flow of `frame`, whose target is `target_file`; `None` when off, or when
-    /// automatic and the file holds no velocity grid. `note` hears which grid was chosen.
+    /// The flow of `frame`, whose target is `target_file`, extended for a carry over
+    /// `frame_time` seconds ([`GridFlow::new`]); `None` when off, or when automatic and
+    /// the file holds no velocity grid. `note` hears which grid was chosen.
     pub fn flow(
         &self,
         target_file: &Path,
         frame: i64,
+        frame_time: f64,
         note: &mut dyn FnMut(String),
     ) -> Result<Option<GridFlow>, FrameError> {
         let path = match &self.files {
@@ -300,7 +302,7 @@ impl VelocityInput {
                 path.display()
             )));
         }
-        GridFlow::new(&grid, self.scale)
+        GridFlow::new(&grid, self.scale, frame_time)
             .map(Some)
             .map_err(|m| FrameError::Data(format!("{}: {m}", path.display())))
     }
@@ -467,8 +469,8 @@ fn fit_pair(
     let (path_a, path_b) = (input.pattern.path(a), input.pattern.path(b));
     let mut quiet = |_: String| {};
     let (Some(flow_a), Some(flow_b)) = (
-        unscaled.flow(&path_a, a, &mut quiet)?,
-        unscaled.flow(&path_b, b, &mut quiet)?,
+        unscaled.flow(&path_a, a, 1.0 / fps, &mut quiet)?,
+        unscaled.flow(&path_b, b, 1.0 / fps, &mut quiet)?,
     ) else {
         return Ok(None);
     };

@@ -1,6 +1,6 @@
 //! A skin whose storage (f32 or 16-bit fixed point) is chosen at run time.
 
-use super::{Skin, SkinError, SkinParams, SpeedParams, StepStats};
+use super::{Skin, SkinError, SkinParams, SpeedParams, StepStats, Stopped};
 use crate::flow::{Flow, FlowMap};
 use crate::grid::{Fixed16, Precision};
 use crate::mesh::Mesh;
@@ -47,6 +47,14 @@ impl AnySkin {
     }
     pub fn carry(&mut self, map: &dyn FlowMap, duration: f32) {
         each!(self, s => s.carry(map, duration))
+    }
+    pub fn carry_in_flow(
+        &mut self,
+        flow: &dyn Flow,
+        duration: f32,
+        gain: Option<f64>,
+    ) -> Result<(), Stopped> {
+        each!(self, s => s.carry_in_flow(flow, duration, gain))
     }
     pub fn stats(&self) -> StepStats {
         each!(self, s => s.stats())

@@ -7,9 +7,10 @@
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
-use super::{band, Skin};
-use crate::flow::FlowMap;
+use super::{band, Skin, StepLimit, Stopped, ADVECTION_CFL};
+use crate::flow::{Flow, FlowMap, OnNodes, Traced};
 use crate::grid::tube::Reach;
+use crate::grid::Aabb;
 use crate::grid::{block_of, node_offset, Potential, SparseGrid, AROUND, BLOCK_DIM, BLOCK_NODES};
 use crate::stencil::{floor_ivec3, limited_tricubic};
 
@@ -128,6 +129,10 @@ impl<P: Potential> Skin<P> {
     /// (`keep_volume`). The clock is not moved: [`Skin::advance`] then attracts the
     /// carried skin to the frame's target over the same `duration`.
     pub fn carry(&mut self, map: &dyn FlowMap, duration: f32) {
+        self.carry_gaining(map, duration, 0.0);
+    }
+
+    fn carry_gaining(&mut self, map: &dyn FlowMap, duration: f32, gain: f64) {
         let (dx, w) = (self.params.dx, self.params.band_width);
         let xf = self.xf;
         let volume = self.volume;
@@ -240,7 +245,73 @@ impl<P: Potential> Skin<P> {
         crate::grid::tube::upkeep_from(&mut grid, Reach::Faces, &wake, Some(sweep));
         self.grid = grid;
         self.polygonize();
-        self.keep_volume(volume);
+        self.keep_volume(volume + gain);
+    }
+
+    /// Carries the skin by a velocity over `duration` seconds in one trace (§7 over a
+    /// whole frame): each new node's material traced back through `flow` (RK4, a voxel a
+    /// step), the potential read there once. Sub-steps of the advection read it once per
+    /// voxel of motion and each smooths the skin: a splash's crown, a sheet one or two
+    /// voxels thick, erodes under them within a few frames. The carried skin then gains
+    /// `gain` in volume (world units) and no more: what the target gained over the frame
+    /// where that is known (a solver's level set, whose liquid the velocity alone does not
+    /// account for), otherwise what the flow carries out through the skin (its flux over
+    /// `duration`: nothing for a liquid's divergence-free velocity, the swelling of a
+    /// breathing shape). Stops where the sub-steps would ([`Skin::limit_substeps`]),
+    /// naming the flow's speed.
+    pub fn carry_in_flow(
+        &mut self,
+        flow: &dyn Flow,
+        duration: f32,
+        gain: Option<f64>,
+    ) -> Result<(), Stopped> {
+        let dx = self.params.dx;
+        let mut nodes = flow.costly().then(|| OnNodes::new(flow, self.xf));
+        let flow: &dyn Flow = match &mut nodes {
+            Some(nodes) => {
+                nodes.cover(&self.grid);
+                &*nodes
+            }
+            None => flow,
+        };
+        let Some(bounds) = self.band_bounds() else {
+            return Ok(());
+        };
+        let speed = self.sample_flow(flow);
+        let voxels = f64::from(speed) * f64::from(duration) / f64::from(dx);
+        let needed = (voxels / f64::from(ADVECTION_CFL)).ceil();
+        if let Some(most) = self.max_substeps {
+            if !needed.is_finite() || needed > f64::from(most) {
+                return Err(Stopped {
+                    needed,
+                    limit: StepLimit::Flow { speed, voxels },
+                });
+            }
+        }
+        let gain =
+            gain.unwrap_or_else(|| f64::from(duration) * self.mesh.flux(|x| flow.velocity(x)));
+        let map = Traced {
+            flow,
+            bounds: bounds.padded(speed * duration + 2.0 * dx),
+            step: dx,
+        };
+        self.carry_gaining(&map, duration, gain);
+        Ok(())
+    }
+
+    /// The box of the band's blocks, world units; `None` without blocks.
+    fn band_bounds(&self) -> Option<Aabb> {
+        let (lo, hi) = self
+            .grid
+            .blocks()
+            .iter()
+            .fold((IVec3::MAX, IVec3::MIN), |(lo, hi), b| {
+                (lo.min(b.coord), hi.max(b.coord))
+            });
+        (lo.cmple(hi).all()).then(|| Aabb {
+            min: self.xf.apply((lo * BLOCK_DIM).as_vec3()),
+            max: self.xf.apply(((hi + IVec3::ONE) * BLOCK_DIM).as_vec3()),
+        })
     }
 
     /// Moves the whole skin along its normals by the uniform offset that gives it back
