@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use super::Flow;
 use crate::grid::IndexToWorld;
 use crate::grid::BLOCK_NODES;
-use crate::grid::{block_of, node_offset, offset_coords, Potential, SparseGrid, AROUND, BLOCK_DIM};
+use crate::grid::{block_of, node_offset, offset_coords, Potential, SparseGrid, BLOCK_DIM};
 
 /// `flow` at the nodes of the lattice `xf`, in blocks of 8³ around a skin's band.
 pub struct OnNodes<'a> {
@@ -35,24 +35,35 @@ impl<'a> OnNodes<'a> {
     /// may reach (a trace moves under a voxel per sub-step, and its cell one more), those
     /// not sampled yet.
     pub(crate) fn cover<P: Potential>(&mut self, grid: &SparseGrid<P>) {
+        self.cover_reaching(grid, 1);
+    }
+
+    /// [`OnNodes::cover`] for traces that move up to `reach` voxels from `grid`'s active
+    /// nodes (a whole frame's): every block within `reach` + 1 nodes of them, where
+    /// otherwise each cell of a trace past the blocks would sample its eight corners on
+    /// the spot.
+    pub(crate) fn cover_reaching<P: Potential>(&mut self, grid: &SparseGrid<P>, reach: u32) {
+        let extent = reach as i32 + 1;
         let mut wanted: Vec<IVec3> = grid
             .blocks()
             .par_iter()
             .filter(|b| b.active_count() > 0)
             .flat_map_iter(|b| {
-                // Per axis: an active node within two nodes of the low / high face.
-                let mut near = [[false; 2]; 3];
+                // The active nodes' span per axis, grown by the extent.
+                let (mut lo, mut hi) = (IVec3::splat(BLOCK_DIM), IVec3::splat(-1));
                 for offset in b.active_offsets() {
                     let l = offset_coords(offset);
-                    for axis in 0..3 {
-                        near[axis][0] |= l[axis] < 2;
-                        near[axis][1] |= l[axis] >= BLOCK_DIM - 2;
-                    }
+                    (lo, hi) = (lo.min(l), hi.max(l));
                 }
-                AROUND
-                    .into_iter()
-                    .filter(move |d| (0..3).all(|a| d[a] == 0 || near[a][usize::from(d[a] > 0)]))
-                    .map(move |d| b.coord + d)
+                // The neighbours (in blocks) whose nodes meet that span.
+                let first = (lo - extent).div_euclid(IVec3::splat(BLOCK_DIM));
+                let last = (hi + extent).div_euclid(IVec3::splat(BLOCK_DIM));
+                let coord = b.coord;
+                (first.x..=last.x).flat_map(move |x| {
+                    (first.y..=last.y).flat_map(move |y| {
+                        (first.z..=last.z).map(move |z| coord + IVec3::new(x, y, z))
+                    })
+                })
             })
             .filter(|c| !self.blocks.contains_key(c))
             .collect();
@@ -175,6 +186,48 @@ mod tests {
             assert_eq!(a.to_array(), b.to_array(), "at {p}");
             // A rigid motion is linear: trilinear interpolation gives it back.
             assert!((a - rigid.velocity(p)).length() < 1e-5, "at {p}");
+        }
+    }
+
+    #[test]
+    fn a_frames_reach_is_covered_and_reads_the_same() {
+        let dx = 0.05;
+        let xf = IndexToWorld {
+            origin: Vec3::ZERO,
+            dx,
+        };
+        let rigid = Rigid {
+            center: Vec3::ZERO,
+            linear: Vec3::new(1.0, 0.5, -0.25),
+            angular: Vec3::new(0.3, 2.0, -1.0),
+        };
+        let grid = skin_grid(dx);
+        let (mut near, mut far) = (OnNodes::new(&rigid, xf), OnNodes::new(&rigid, xf));
+        near.cover(&grid);
+        far.cover_reaching(&grid, 12);
+        assert!(far.blocks.len() > near.blocks.len());
+        // Every cell a trace meets within 12 voxels of an active node is stored.
+        let mut lcg = 1u64;
+        for b in grid.blocks().iter().filter(|b| b.active_count() > 0) {
+            for offset in b.active_offsets().step_by(37) {
+                lcg = lcg
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let unit = |shift: u32| ((lcg >> shift) & 0xffff) as f32 / 65535.0 - 0.5;
+                let dir = Vec3::new(unit(16), unit(32), unit(48)).normalize_or(Vec3::X);
+                let node = b.coord * BLOCK_DIM + offset_coords(offset);
+                let q = node.as_vec3() + dir * 12.0;
+                let cell = floor(q);
+                for c in 0..8 {
+                    let corner = cell + IVec3::new(c & 1, c >> 1 & 1, c >> 2 & 1);
+                    assert!(
+                        far.blocks.contains_key(&block_of(corner)),
+                        "{node} + 12 voxels"
+                    );
+                }
+                let p = xf.apply(q);
+                assert_eq!(far.velocity(p).to_array(), near.velocity(p).to_array());
+            }
         }
     }
 }

@@ -121,6 +121,10 @@ fn carry_blocks<P: Potential>(
     );
 }
 
+/// Voxels past the band up to which a frame's trace reads a costly flow from nodes
+/// sampled once ([`Skin::carry_in_flow`]).
+const MAX_CACHED_REACH: u32 = 2 * BLOCK_DIM as u32;
+
 impl<P: Potential> Skin<P> {
     /// Carries the skin by `map` over `duration` seconds (§7 in one trace): the new band
     /// holds, at each node, the old potential where the node's material was; where no
@@ -267,17 +271,16 @@ impl<P: Potential> Skin<P> {
     ) -> Result<(), Stopped> {
         let dx = self.params.dx;
         let mut nodes = flow.costly().then(|| OnNodes::new(flow, self.xf));
-        let flow: &dyn Flow = match &mut nodes {
-            Some(nodes) => {
-                nodes.cover(&self.grid);
-                &*nodes
-            }
-            None => flow,
-        };
+        if let Some(nodes) = &mut nodes {
+            nodes.cover(&self.grid);
+        }
         let Some(bounds) = self.band_bounds() else {
             return Ok(());
         };
-        let speed = self.sample_flow(flow);
+        let speed = match &nodes {
+            Some(nodes) => self.sample_flow(nodes),
+            None => self.sample_flow(flow),
+        };
         let voxels = f64::from(speed) * f64::from(duration) / f64::from(dx);
         let needed = (voxels / f64::from(ADVECTION_CFL)).ceil();
         if let Some(most) = self.max_substeps {
@@ -288,6 +291,17 @@ impl<P: Potential> Skin<P> {
                 });
             }
         }
+        // Cached as far as the traces go, up to two blocks (past them a trace's cells are
+        // sampled on the spot, the same numbers, so that the cache's memory stays near
+        // the band's).
+        let flow: &dyn Flow = match &mut nodes {
+            Some(nodes) => {
+                let reach = voxels.ceil().clamp(1.0, f64::from(MAX_CACHED_REACH)) as u32;
+                nodes.cover_reaching(&self.grid, reach);
+                &*nodes
+            }
+            None => flow,
+        };
         let gain =
             gain.unwrap_or_else(|| f64::from(duration) * self.mesh.flux(|x| flow.velocity(x)));
         let map = Traced {
