@@ -204,13 +204,7 @@ pub fn run<'t>(
                             let gain = volume_before
                                 .zip(input.target.volume())
                                 .map(|(before, now)| now - before);
-                            match skin.carry_in_flow(flow, duration as f32, gain) {
-                                Ok(()) => skin.advance(&*input.target, duration),
-                                Err(stopped) => crate::skin::StepStats {
-                                    stopped: Some(stopped),
-                                    ..skin.stats()
-                                },
-                            }
+                            skin.follow(&*input.target, flow, duration, gain)
                         }
                         None => skin.advance(&*input.target, duration),
                     }

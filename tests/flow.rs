@@ -494,13 +494,20 @@ fn track<'f>(
 ) -> Run {
     let dx = params.dx;
     let cached = |frame: usize| sample::level_set(&*cache_at(frame), dx, 3.0);
-    let mut skin: Skin<f32> = Skin::new(&LevelSetTarget::new(&cached(0)), params);
+    let first = LevelSetTarget::new(&cached(0));
+    let mut skin: Skin<f32> = Skin::new(&first, params);
     skin.settle();
+    let mut volume = first.volume();
     let (mut sum, mut n, mut worst, mut meshing, mut medians) = (0.0, 0, 0.0f64, 0.0, 0.0);
     for frame in 1..frames {
         let level_set = cached(frame);
         let target = LevelSetTarget::new(&level_set);
-        skin.advance_in_flow(&target, Some(&*flow_over(frame)), 1.0 / f64::from(FPS));
+        let gain = volume
+            .zip(target.volume())
+            .map(|(before, now)| now - before);
+        volume = target.volume();
+        let stats = skin.follow(&target, &*flow_over(frame), 1.0 / f64::from(FPS), gain);
+        assert!(stats.stopped.is_none());
         skin.settle();
         if frame >= frames / 2 {
             let truth = truth_at(frame);

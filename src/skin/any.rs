@@ -1,6 +1,6 @@
 //! A skin whose storage (f32 or 16-bit fixed point) is chosen at run time.
 
-use super::{Skin, SkinError, SkinParams, SpeedParams, StepStats, Stopped};
+use super::{Skin, SkinError, SkinParams, SpeedParams, StepStats};
 use crate::flow::{Flow, FlowMap};
 use crate::grid::{Fixed16, Precision};
 use crate::mesh::Mesh;
@@ -48,13 +48,14 @@ impl AnySkin {
     pub fn carry(&mut self, map: &dyn FlowMap, duration: f32) {
         each!(self, s => s.carry(map, duration))
     }
-    pub fn carry_in_flow(
+    pub fn follow(
         &mut self,
+        target: &dyn Target,
         flow: &dyn Flow,
-        duration: f32,
+        duration: f64,
         gain: Option<f64>,
-    ) -> Result<(), Stopped> {
-        each!(self, s => s.carry_in_flow(flow, duration, gain))
+    ) -> StepStats {
+        each!(self, s => s.follow(target, flow, duration, gain))
     }
     pub fn stats(&self) -> StepStats {
         each!(self, s => s.stats())

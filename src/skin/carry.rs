@@ -7,12 +7,13 @@
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
-use super::{band, Skin, StepLimit, Stopped, ADVECTION_CFL};
+use super::{band, Skin, StepLimit, StepStats, Stopped, ADVECTION_CFL};
 use crate::flow::{Flow, FlowMap, OnNodes, Traced};
 use crate::grid::tube::Reach;
 use crate::grid::Aabb;
 use crate::grid::{block_of, node_offset, Potential, SparseGrid, AROUND, BLOCK_DIM, BLOCK_NODES};
 use crate::stencil::{floor_ivec3, limited_tricubic};
+use crate::target::Target;
 
 /// A box of the old grid's nodes, copied once for the nodes of a new block whose
 /// departure points all lie in it: their 4³ stencils then read without hashing.
@@ -311,6 +312,25 @@ impl<P: Potential> Skin<P> {
         };
         self.carry_gaining(&map, duration, gain);
         Ok(())
+    }
+
+    /// One frame of a cache in its flow, as `skin` runs it: carried in one trace
+    /// ([`Skin::carry_in_flow`], gaining `gain`), then attracted to the frame's `target`
+    /// over the same `duration`. The stats say where the carry stopped, if it did.
+    pub fn follow(
+        &mut self,
+        target: &dyn Target,
+        flow: &dyn Flow,
+        duration: f64,
+        gain: Option<f64>,
+    ) -> StepStats {
+        match self.carry_in_flow(flow, duration as f32, gain) {
+            Ok(()) => self.advance(target, duration),
+            Err(stopped) => StepStats {
+                stopped: Some(stopped),
+                ..self.stats()
+            },
+        }
     }
 
     /// The box of the band's blocks, world units; `None` without blocks.
