@@ -200,12 +200,7 @@ pub fn run<'t>(
                     let flow = timing.interval(before.as_deref(), input.flow.as_deref(), &mut mean);
                     match flow {
                         // One trace over the frame, then the attraction.
-                        Some(flow) => {
-                            let gain = volume_before
-                                .zip(input.target.volume())
-                                .map(|(before, now)| now - before);
-                            skin.follow(&*input.target, flow, duration, gain)
-                        }
+                        Some(flow) => skin.follow(&*input.target, flow, duration, volume_before),
                         None => skin.advance(&*input.target, duration),
                     }
                 }

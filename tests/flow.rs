@@ -502,11 +502,8 @@ fn track<'f>(
     for frame in 1..frames {
         let level_set = cached(frame);
         let target = LevelSetTarget::new(&level_set);
-        let gain = volume
-            .zip(target.volume())
-            .map(|(before, now)| now - before);
+        let stats = skin.follow(&target, &*flow_over(frame), 1.0 / f64::from(FPS), volume);
         volume = target.volume();
-        let stats = skin.follow(&target, &*flow_over(frame), 1.0 / f64::from(FPS), gain);
         assert!(stats.stopped.is_none());
         skin.settle();
         if frame >= frames / 2 {

@@ -151,6 +151,22 @@ mod tests {
     use crate::flow::Rigid;
     use crate::target::{sample, Sphere};
 
+    const DX: f32 = 0.05;
+
+    /// A rigid motion: linear, so trilinear interpolation of its nodes is exact.
+    const TURNING: Rigid = Rigid {
+        center: Vec3::new(0.2, -0.1, 0.3),
+        linear: Vec3::new(1.0, 0.5, -0.25),
+        angular: Vec3::new(0.3, 2.0, -1.0),
+    };
+
+    fn lattice() -> IndexToWorld {
+        IndexToWorld {
+            origin: Vec3::ZERO,
+            dx: DX,
+        }
+    }
+
     fn skin_grid(dx: f32) -> SparseGrid<f32> {
         let sphere = Sphere {
             center: Vec3::splat(0.1),
@@ -164,16 +180,7 @@ mod tests {
 
     #[test]
     fn a_linear_flow_is_read_back_and_every_point_reads_the_same_with_any_cover() {
-        let dx = 0.05;
-        let xf = IndexToWorld {
-            origin: Vec3::ZERO,
-            dx,
-        };
-        let rigid = Rigid {
-            center: Vec3::new(0.2, -0.1, 0.3),
-            linear: Vec3::new(1.0, 0.5, -0.25),
-            angular: Vec3::new(0.3, 2.0, -1.0),
-        };
+        let (dx, xf, rigid) = (DX, lattice(), TURNING);
         let mut covered = OnNodes::new(&rigid, xf);
         covered.cover(&skin_grid(dx));
         assert!(!covered.blocks.is_empty());
@@ -191,16 +198,7 @@ mod tests {
 
     #[test]
     fn a_frames_reach_is_covered_and_reads_the_same() {
-        let dx = 0.05;
-        let xf = IndexToWorld {
-            origin: Vec3::ZERO,
-            dx,
-        };
-        let rigid = Rigid {
-            center: Vec3::ZERO,
-            linear: Vec3::new(1.0, 0.5, -0.25),
-            angular: Vec3::new(0.3, 2.0, -1.0),
-        };
+        let (dx, xf, rigid) = (DX, lattice(), TURNING);
         let grid = skin_grid(dx);
         let (mut near, mut far) = (OnNodes::new(&rigid, xf), OnNodes::new(&rigid, xf));
         near.cover(&grid);

@@ -53,9 +53,9 @@ impl AnySkin {
         target: &dyn Target,
         flow: &dyn Flow,
         duration: f64,
-        gain: Option<f64>,
+        volume_before: Option<f64>,
     ) -> StepStats {
-        each!(self, s => s.follow(target, flow, duration, gain))
+        each!(self, s => s.follow(target, flow, duration, volume_before))
     }
     pub fn stats(&self) -> StepStats {
         each!(self, s => s.stats())

@@ -315,15 +315,20 @@ impl<P: Potential> Skin<P> {
     }
 
     /// One frame of a cache in its flow, as `skin` runs it: carried in one trace
-    /// ([`Skin::carry_in_flow`], gaining `gain`), then attracted to the frame's `target`
-    /// over the same `duration`. The stats say where the carry stopped, if it did.
+    /// ([`Skin::carry_in_flow`]), gaining what the target gained since the frame before,
+    /// whose target enclosed `volume_before` (the flow's flux when either volume is
+    /// unknown), then attracted to the frame's `target` over the same `duration`. The
+    /// stats say where the carry stopped, if it did.
     pub fn follow(
         &mut self,
         target: &dyn Target,
         flow: &dyn Flow,
         duration: f64,
-        gain: Option<f64>,
+        volume_before: Option<f64>,
     ) -> StepStats {
+        let gain = volume_before
+            .zip(target.volume())
+            .map(|(before, now)| now - before);
         match self.carry_in_flow(flow, duration as f32, gain) {
             Ok(()) => self.advance(target, duration),
             Err(stopped) => StepStats {

@@ -225,14 +225,16 @@ impl Sampler {
 /// tricubically.
 pub struct LevelSetTarget {
     sampler: Sampler,
-    volume: f64,
+    /// Counted when first asked: only a frame carried by a velocity needs it.
+    volume: std::sync::OnceLock<f64>,
 }
 
 impl LevelSetTarget {
     pub fn new(data: &GridData) -> Self {
-        let sampler = Sampler::new(data);
-        let volume = sampler.enclosed_volume();
-        LevelSetTarget { sampler, volume }
+        LevelSetTarget {
+            sampler: Sampler::new(data),
+            volume: std::sync::OnceLock::new(),
+        }
     }
 }
 
@@ -248,7 +250,7 @@ impl Target for LevelSetTarget {
         self.sampler.parts(|v| v < 0.0)
     }
     fn volume(&self) -> Option<f64> {
-        Some(self.volume)
+        Some(*self.volume.get_or_init(|| self.sampler.enclosed_volume()))
     }
 }
 
