@@ -7,7 +7,7 @@ mod nodes;
 
 use glam::Vec3;
 
-pub use grid::{GridFlow, EXTENSION_LAYERS, MAX_MOTION_LAYERS};
+pub use grid::{GridFlow, GridFlowError, EXTENSION_LAYERS, MAX_MOTION_LAYERS};
 pub use nodes::OnNodes;
 
 use crate::grid::Aabb;

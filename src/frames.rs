@@ -55,6 +55,13 @@ pub enum FrameError {
     /// An input that cannot be used, or an output that cannot be written.
     #[error("{0}")]
     Data(String),
+    /// A velocity grid that cannot carry the skin.
+    #[error("{}: {source}", path.display())]
+    Velocity {
+        path: std::path::PathBuf,
+        #[source]
+        source: crate::flow::GridFlowError,
+    },
     /// A file that cannot be written.
     #[error("{}: {source}", path.display())]
     Write {

@@ -17,6 +17,25 @@ pub const EXTENSION_LAYERS: u32 = 3;
 /// further than that in a frame is left to the attraction and the seeding.
 pub const MAX_MOTION_LAYERS: u32 = 61;
 
+/// Why a velocity grid cannot be used as a flow.
+#[derive(Debug, thiserror::Error)]
+pub enum GridFlowError {
+    #[error("grid '{name}' has an active tile of {dim}³ voxels; densify it first")]
+    WideTile { name: String, dim: u32 },
+    #[error(
+        "grid '{name}' has {count} voxel{} whose velocity is NaN or infinite{}",
+        if *count == 1 { "" } else { "s" },
+        if *scaled { " after the scale" } else { "" }
+    )]
+    NotFinite {
+        name: String,
+        count: usize,
+        scaled: bool,
+    },
+    #[error("grid '{0}' has a singular transform")]
+    SingularTransform(String),
+}
+
 /// A velocity grid, world units per second after `scale`.
 pub struct GridFlow {
     /// The voxels in blocks of 8³: a sample's eight corners are mostly one lookup.
@@ -51,7 +70,7 @@ impl GridFlow {
     /// solver stores (a FLIP cache's velocity stops at its liquid). Tiles wider than 64
     /// voxels are refused (a uniform velocity over a region that size is better given as
     /// a rigid motion), and so are velocities that are NaN or infinite.
-    pub fn new(grid: &VectorGrid, scale: f32, duration: f64) -> Result<Self, String> {
+    pub fn new(grid: &VectorGrid, scale: f32, duration: f64) -> Result<Self, GridFlowError> {
         let mut voxels = HashMap::new();
         for (leaf, origin) in grid.leaf_origins.iter().enumerate() {
             let origin = IVec3::from_array(*origin);
@@ -65,10 +84,10 @@ impl GridFlow {
         }
         for tile in &grid.tiles {
             if tile.dim > 64 {
-                return Err(format!(
-                    "grid '{}' has an active tile of {}³ voxels; densify it first",
-                    grid.name, tile.dim
-                ));
+                return Err(GridFlowError::WideTile {
+                    name: grid.name.clone(),
+                    dim: tile.dim,
+                });
             }
             let lo = IVec3::from_array(tile.origin);
             let d = tile.dim as i32;
@@ -84,12 +103,11 @@ impl GridFlow {
         // near it.
         let bad = voxels.values().filter(|v| !v.is_finite()).count();
         if bad > 0 {
-            return Err(format!(
-                "grid '{}' has {bad} voxel{} whose velocity is NaN or infinite{}",
-                grid.name,
-                if bad == 1 { "" } else { "s" },
-                if scale == 1.0 { "" } else { " after the scale" }
-            ));
+            return Err(GridFlowError::NotFinite {
+                name: grid.name.clone(),
+                count: bad,
+                scaled: scale != 1.0,
+            });
         }
         let fastest = voxels.values().fold(0.0f32, |m, v| m.max(v.length()));
         let voxel = grid.transform.voxel_size();
@@ -103,7 +121,7 @@ impl GridFlow {
         // OpenVDB's row-vector matrix read column-major is the column-vector map.
         let to_index = DMat4::from_cols_array(&grid.transform.matrix).inverse();
         if !to_index.is_finite() {
-            return Err(format!("grid '{}' has a singular transform", grid.name));
+            return Err(GridFlowError::SingularTransform(grid.name.clone()));
         }
         let mut blocks: HashMap<IVec3, Box<VelocityBlock>> = HashMap::new();
         for (v, u) in voxels {

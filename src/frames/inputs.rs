@@ -156,34 +156,38 @@ impl ParticleInput {
     /// radius) — coarser, the density is sampled by less than a node per particle and
     /// the skin takes the shape of the voxels (a ball of radius 0.1 at `--voxel-size
     /// 1e4` became a blob of 6·10¹⁰ m³).
-    pub fn check(&self) -> Result<(), String> {
+    pub fn check(&self) -> Result<(), FrameError> {
         let positive = |name: &str, v: f32| match v.is_finite() && v > 0.0 {
             true => Ok(()),
-            false => Err(format!("{name} must be a positive number, got {v}")),
+            false => Err(FrameError::Usage(format!(
+                "{name} must be a positive number, got {v}"
+            ))),
         };
         positive("--radius", self.radius)?;
         positive("--smoothing-length", self.smoothing_length)?;
         // Before the iso, which is NaN past it.
         if self.smoothing_length > MAX_SMOOTHING_LENGTH {
-            return Err(format!(
+            return Err(FrameError::Usage(format!(
                 "--smoothing-length {} is beyond {MAX_SMOOTHING_LENGTH} radii (some 17 000 neighbours a particle)",
                 self.smoothing_length
-            ));
+            )));
         }
         positive("--iso", self.iso)?;
         positive("--voxel-size", self.dx)?;
         if let Some(k) = self.velocity_scale.filter(|k| !k.is_finite()) {
-            return Err(format!("--velocity-scale must be a number, got {k}"));
+            return Err(FrameError::Usage(format!(
+                "--velocity-scale must be a number, got {k}"
+            )));
         }
         if cfg!(not(feature = "vdb")) && self.density_out.is_some() {
-            return Err("--density-out writes VDB fog volumes: this activeskin was built without OpenVDB (the `vdb` feature)".into());
+            return Err(FrameError::Usage("--density-out writes VDB fog volumes: this activeskin was built without OpenVDB (the `vdb` feature)".into()));
         }
         let support = 2.0 * self.smoothing_length * self.radius;
         if self.dx > support {
-            return Err(format!(
+            return Err(FrameError::Usage(format!(
                 "--voxel-size {} is coarser than the particles' kernel (support {support}): at most that; the default, radius/2, resolves them",
                 self.dx
-            ));
+            )));
         }
         Ok(())
     }

@@ -36,9 +36,7 @@ impl ParticleRun<'_> {
         outputs: &mut Outputs,
         note: &mut dyn FnMut(String),
     ) -> Result<(), FrameError> {
-        if let Err(why) = self.particles.check() {
-            return Err(FrameError::Usage(why));
-        }
+        self.particles.check()?;
         super::check_fps(self.fps)?;
         self.params.check()?;
         let (input, range, write_from) = (self.input, self.input.range, self.write_from);

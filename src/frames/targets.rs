@@ -304,7 +304,7 @@ impl VelocityInput {
         }
         GridFlow::new(&grid, self.scale, frame_time)
             .map(Some)
-            .map_err(|m| FrameError::Data(format!("{}: {m}", path.display())))
+            .map_err(|source| FrameError::Velocity { path, source })
     }
 }
 

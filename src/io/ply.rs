@@ -43,11 +43,23 @@ fn scalar_type(name: &str) -> Option<Scalar> {
 #[error("{0}")]
 pub struct PlyError(pub String);
 
-pub(crate) fn read_ply(bytes: &[u8]) -> Result<Particles, PlyError> {
-    parse_ply(bytes).map_err(PlyError)
+impl From<String> for PlyError {
+    fn from(message: String) -> Self {
+        PlyError(message)
+    }
 }
 
-fn parse_ply(bytes: &[u8]) -> Result<Particles, String> {
+impl From<&str> for PlyError {
+    fn from(message: &str) -> Self {
+        PlyError(message.to_string())
+    }
+}
+
+pub(crate) fn read_ply(bytes: &[u8]) -> Result<Particles, PlyError> {
+    parse_ply(bytes)
+}
+
+fn parse_ply(bytes: &[u8]) -> Result<Particles, PlyError> {
     const END: &[u8] = b"end_header";
     let end = bytes
         .windows(END.len())
@@ -75,7 +87,7 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, String> {
                     "ascii" => Encoding::Ascii,
                     "binary_little_endian" => Encoding::Little,
                     "binary_big_endian" => Encoding::Big,
-                    other => return Err(format!("unknown PLY format '{other}'")),
+                    other => return Err(format!("unknown PLY format '{other}'").into()),
                 })
             }
             ["element", name, count] => {
@@ -91,19 +103,18 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, String> {
             ["property", ty, name] => {
                 let element = elements.last_mut().ok_or("property before any element")?;
                 if scalar_type(ty).is_none() {
-                    return Err(format!("property {name}: unknown type '{ty}'"));
+                    return Err(format!("property {name}: unknown type '{ty}'").into());
                 }
                 // Which of two would be meant cannot be known.
                 if element.2.iter().any(|(n, _)| n == name) {
-                    return Err(format!(
-                        "property {name} appears twice in element {}",
-                        element.0
-                    ));
+                    return Err(
+                        format!("property {name} appears twice in element {}", element.0).into(),
+                    );
                 }
                 element.2.push((name.to_string(), ty.to_string()));
             }
             ["comment", ..] | ["obj_info", ..] | [] => {}
-            _ => return Err(format!("unreadable PLY header line '{line}'")),
+            _ => return Err(format!("unreadable PLY header line '{line}'").into()),
         }
     }
     let format = format.ok_or("PLY header has no format line")?;
@@ -172,7 +183,8 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, String> {
                         "vertex {i}: {} values, {} expected",
                         row.len(),
                         properties.len()
-                    ));
+                    )
+                    .into());
                 }
                 push(&row);
             }
@@ -193,7 +205,8 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, String> {
                     "{count} vertices announced, {} bytes hold {}",
                     data.len(),
                     data.len() / stride.max(1)
-                ));
+                )
+                .into());
             }
             if *count > 0 && stride == 0 {
                 return Err("vertex element has no properties".into());

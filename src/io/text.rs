@@ -16,11 +16,23 @@ use crate::particles::Particles;
 #[error("{0}")]
 pub struct TextError(pub String);
 
-pub(crate) fn read_text(bytes: &[u8]) -> Result<Particles, TextError> {
-    parse_text(bytes).map_err(TextError)
+impl From<String> for TextError {
+    fn from(message: String) -> Self {
+        TextError(message)
+    }
 }
 
-fn parse_text(bytes: &[u8]) -> Result<Particles, String> {
+impl From<&str> for TextError {
+    fn from(message: &str) -> Self {
+        TextError(message.to_string())
+    }
+}
+
+pub(crate) fn read_text(bytes: &[u8]) -> Result<Particles, TextError> {
+    parse_text(bytes)
+}
+
+fn parse_text(bytes: &[u8]) -> Result<Particles, TextError> {
     let text = std::str::from_utf8(bytes).map_err(|_| "not a text file".to_string())?;
     let split = |line: &str| -> Vec<String> { fields(line).map(str::to_string).collect() };
     let mut lines = text
@@ -56,10 +68,10 @@ fn parse_text(bytes: &[u8]) -> Result<Particles, String> {
             }
             row(n, numbers, columns.as_ref())
         })
-        .collect::<Vec<Result<Row, String>>>()
+        .collect::<Vec<Result<Row, TextError>>>()
         .into_iter()
         // The first bad line, whichever thread met it.
-        .collect::<Result<_, String>>()?;
+        .collect::<Result<_, TextError>>()?;
     let with_radius = parsed.iter().filter(|r| r.radius.is_some()).count();
     if with_radius != 0 && with_radius != parsed.len() {
         return Err("some lines have a radius and others not".into());
@@ -101,7 +113,7 @@ fn fields(line: &str) -> impl Iterator<Item = &str> {
 
 /// Row `n`'s particle from its `numbers`, by the header's columns or, without one, as
 /// `x y z [radius]`.
-fn row(n: usize, numbers: &[f64], columns: Option<&Columns>) -> Result<Row, String> {
+fn row(n: usize, numbers: &[f64], columns: Option<&Columns>) -> Result<Row, TextError> {
     let at = |k: usize| numbers[k] as f32;
     match columns {
         Some(c) => {
@@ -110,7 +122,8 @@ fn row(n: usize, numbers: &[f64], columns: Option<&Columns>) -> Result<Row, Stri
                     "line {n}: {} numbers, the header names {} columns",
                     numbers.len(),
                     c.width
-                ));
+                )
+                .into());
             }
             Ok(Row {
                 position: Vec3::new(at(c.x[0]), at(c.x[1]), at(c.x[2])),
@@ -128,7 +141,8 @@ fn row(n: usize, numbers: &[f64], columns: Option<&Columns>) -> Result<Row, Stri
             }),
             k => Err(format!(
                 "line {n}: {k} numbers, expected x y z [radius] (or a header naming the columns)"
-            )),
+            )
+            .into()),
         },
     }
 }

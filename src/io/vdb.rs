@@ -71,7 +71,11 @@ enum WriteFault {
     #[error(transparent)]
     Io(#[from] std::io::Error),
     #[error("the file came out incomplete ({length} bytes: {reason}); is the disk out of space?")]
-    Incomplete { length: u64, reason: String },
+    Incomplete {
+        length: u64,
+        #[source]
+        reason: layout::LayoutError,
+    },
 }
 
 /// OpenVDB messages may span lines; ours must not.
@@ -282,15 +286,12 @@ impl Grid {
         ffi::bridge::mem_usage(&self.inner)
     }
 
-    /// OpenVDB's `checkLevelSet`: `Ok(())` when valid, else its diagnostic.
-    pub fn check_level_set(&self) -> Result<Result<(), String>, VdbError> {
+    /// OpenVDB's `checkLevelSet`: its diagnostic, `None` when the grid is a valid level
+    /// set (a verdict on the grid, not a failure to check it).
+    pub fn check_level_set(&self) -> Result<Option<String>, VdbError> {
         let report = ffi::bridge::check_level_set(&self.inner)
             .map_err(|e| VdbError::Grid(one_line(e.what())))?;
-        Ok(if report.is_empty() {
-            Ok(())
-        } else {
-            Err(one_line(&report))
-        })
+        Ok((!report.is_empty()).then(|| one_line(&report)))
     }
 }
 

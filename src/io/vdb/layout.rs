@@ -21,6 +21,33 @@ const VERSION_PER_GRID_COMPRESSION: u32 = 222;
 /// Far more than any real file holds; a larger count means a corrupt header.
 const MAX_COUNT: u32 = 1 << 20;
 
+/// Why a file's layout cannot be walked, or the grid asked for is not in it.
+#[derive(Debug, thiserror::Error)]
+pub enum LayoutError {
+    /// The file could not be read where the walk needed it.
+    #[error("cannot read {what}: {source}")]
+    Io {
+        what: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The bytes are not a whole VDB file, or do not hold the grid asked for.
+    #[error("{0}")]
+    Bad(String),
+}
+
+impl From<String> for LayoutError {
+    fn from(message: String) -> Self {
+        LayoutError::Bad(message)
+    }
+}
+
+impl From<&str> for LayoutError {
+    fn from(message: &str) -> Self {
+        LayoutError::Bad(message.to_string())
+    }
+}
+
 /// What the walk found: enough to describe the file, nothing OpenVDB needs.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Layout {
@@ -81,13 +108,13 @@ impl Layout {
     /// (`a[1]`: given as stored, `a\x1e1`, it finds the first `a`): `name`
     /// ([`Layout::find`]), or the first float grid in file order (OpenVDB's own lookup
     /// goes by sorted name). `Err` explains, listing the grids.
-    pub fn choose_float_grid(&self, name: Option<&str>) -> Result<String, String> {
+    pub fn choose_float_grid(&self, name: Option<&str>) -> Result<String, LayoutError> {
         let is_float = |kind: &str| kind.starts_with("Tree_float_");
         match name {
             Some(n) => match self.find(n) {
-                None => Err(format!("no grid named '{n}' ({})", self.describe_grids())),
+                None => Err(format!("no grid named '{n}' ({})", self.describe_grids()).into()),
                 Some((_, kind)) if !is_float(kind) => {
-                    Err(format!("grid '{n}' is a {kind}, not a float grid"))
+                    Err(format!("grid '{n}' is a {kind}, not a float grid").into())
                 }
                 Some((g, _)) => Ok(printable_name(g)),
             },
@@ -96,7 +123,7 @@ impl Layout {
                 .iter()
                 .find(|(_, kind)| is_float(kind))
                 .map(|(g, _)| printable_name(g))
-                .ok_or_else(|| format!("no float grid ({})", self.describe_grids())),
+                .ok_or_else(|| format!("no float grid ({})", self.describe_grids()).into()),
         }
     }
 }
@@ -108,43 +135,48 @@ struct Walker<R> {
 }
 
 impl<R: Read + Seek> Walker<R> {
-    fn truncated(&self, what: &str, needed: u64) -> String {
-        format!(
+    fn truncated(&self, what: &str, needed: u64) -> LayoutError {
+        LayoutError::Bad(format!(
             "truncated or corrupt VDB file: {what} needs bytes up to {needed} but the file has {}",
             self.len
-        )
+        ))
     }
 
-    fn bytes<const N: usize>(&mut self, what: &str) -> Result<[u8; N], String> {
+    fn io(what: &str) -> impl FnOnce(std::io::Error) -> LayoutError + '_ {
+        move |source| LayoutError::Io {
+            what: what.to_string(),
+            source,
+        }
+    }
+
+    fn bytes<const N: usize>(&mut self, what: &str) -> Result<[u8; N], LayoutError> {
         let end = self.pos + N as u64;
         if end > self.len {
             return Err(self.truncated(what, end));
         }
         let mut buf = [0u8; N];
-        self.reader
-            .read_exact(&mut buf)
-            .map_err(|e| format!("cannot read {what}: {e}"))?;
+        self.reader.read_exact(&mut buf).map_err(Self::io(what))?;
         self.pos = end;
         Ok(buf)
     }
 
-    fn u32(&mut self, what: &str) -> Result<u32, String> {
+    fn u32(&mut self, what: &str) -> Result<u32, LayoutError> {
         self.bytes::<4>(what).map(u32::from_le_bytes)
     }
 
-    fn i64(&mut self, what: &str) -> Result<i64, String> {
+    fn i64(&mut self, what: &str) -> Result<i64, LayoutError> {
         self.bytes::<8>(what).map(i64::from_le_bytes)
     }
 
-    fn count(&mut self, what: &str) -> Result<u32, String> {
+    fn count(&mut self, what: &str) -> Result<u32, LayoutError> {
         let n = self.u32(what)?;
         if n > MAX_COUNT {
-            return Err(format!("corrupt VDB file: {what} is {n}"));
+            return Err(format!("corrupt VDB file: {what} is {n}").into());
         }
         Ok(n)
     }
 
-    fn skip(&mut self, n: u64, what: &str) -> Result<(), String> {
+    fn skip(&mut self, n: u64, what: &str) -> Result<(), LayoutError> {
         let end = self.pos + n;
         if end > self.len {
             return Err(self.truncated(what, end));
@@ -152,42 +184,40 @@ impl<R: Read + Seek> Walker<R> {
         self.seek(end)
     }
 
-    fn seek(&mut self, to: u64) -> Result<(), String> {
+    fn seek(&mut self, to: u64) -> Result<(), LayoutError> {
         self.reader
             .seek(SeekFrom::Start(to))
-            .map_err(|e| format!("cannot seek: {e}"))?;
+            .map_err(Self::io("a seek"))?;
         self.pos = to;
         Ok(())
     }
 
-    fn string(&mut self, what: &str) -> Result<String, String> {
+    fn string(&mut self, what: &str) -> Result<String, LayoutError> {
         let n = u64::from(self.u32(what)?);
         let end = self.pos + n;
         if end > self.len {
             return Err(self.truncated(what, end));
         }
         let mut buf = vec![0u8; n as usize];
-        self.reader
-            .read_exact(&mut buf)
-            .map_err(|e| format!("cannot read {what}: {e}"))?;
+        self.reader.read_exact(&mut buf).map_err(Self::io(what))?;
         self.pos = end;
         Ok(String::from_utf8_lossy(&buf).into_owned())
     }
 }
 
 /// Walks the file's header and grid descriptors; `Err` says what is wrong, on one line.
-pub fn check<R: Read + Seek>(reader: R, len: u64) -> Result<Layout, String> {
+pub fn check<R: Read + Seek>(reader: R, len: u64) -> Result<Layout, LayoutError> {
     let mut w = Walker {
         reader,
         len,
         pos: 0,
     };
     if len < MAGIC.len() as u64 {
-        return Err(if len == 0 {
-            "empty file, not a VDB file".into()
+        return Err(LayoutError::from(if len == 0 {
+            "empty file, not a VDB file"
         } else {
-            "not a VDB file (too short)".into()
-        });
+            "not a VDB file (too short)"
+        }));
     }
     if w.bytes::<8>("magic number")? != MAGIC {
         return Err("not a VDB file (no VDB magic number)".into());
@@ -247,7 +277,7 @@ pub fn check<R: Read + Seek>(reader: R, len: u64) -> Result<Layout, String> {
         let end_pos = w.i64(&what)?;
         let ordered = (w.pos as i64) <= grid_pos && grid_pos <= block_pos && block_pos <= end_pos;
         if !ordered {
-            return Err(format!("corrupt VDB file: bad offsets for {what}"));
+            return Err(format!("corrupt VDB file: bad offsets for {what}").into());
         }
         if end_pos as u64 > len {
             return Err(w.truncated(&what, end_pos as u64));
@@ -297,7 +327,7 @@ mod tests {
     }
 
     fn check_bytes(bytes: &[u8]) -> Result<Layout, String> {
-        check(Cursor::new(bytes), bytes.len() as u64)
+        check(Cursor::new(bytes), bytes.len() as u64).map_err(|e| e.to_string())
     }
 
     #[test]
