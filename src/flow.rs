@@ -110,7 +110,8 @@ pub struct Traced<'a> {
 impl FlowMap for Traced<'_> {
     fn departure(&self, p: Vec3, duration: f32) -> Option<Vec3> {
         let v = |x: Vec3| self.flow.velocity(x);
-        let reach = v(p).length() * duration;
+        // A negative duration traces ahead.
+        let reach = v(p).length() * duration.abs();
         let n = (reach / self.step).ceil().clamp(1.0, 64.0);
         let h = -duration / n;
         let mut x = p;

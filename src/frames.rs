@@ -31,10 +31,12 @@ use crate::io::image::RenderError;
 use crate::io::mesh::MeshError;
 use crate::io::particles::ParticleError;
 use crate::sequence::PatternError;
+use crate::skin::velocity::Motion;
 use crate::skin::{AnySkin, SkinError};
-use crate::target::Target;
+use crate::target::{LevelSetTarget, Target};
 #[cfg(feature = "vdb")]
 use crate::vdb::{Grid, VdbError};
+use crate::volume::GridData;
 
 /// Why a run stopped. Every message is one line naming the file at fault.
 #[derive(Debug, thiserror::Error)]
@@ -132,6 +134,38 @@ impl<'t> Before<'t> {
     }
 }
 
+/// The velocity of the settled skin's mesh ([`crate::skin::velocity`]): the material's
+/// motion the frame's input knows (its flow map, else its velocity), the skin's own
+/// against the frame before's settled level set.
+fn surface_velocities(
+    skin: &AnySkin,
+    input: Option<&FrameInput>,
+    before: Option<&GridData>,
+    duration: f64,
+) -> Vec<glam::Vec3> {
+    let mesh = skin.mesh();
+    let dx = skin.params().dx;
+    let motion = match input {
+        Some(FrameInput {
+            carried: Some(map), ..
+        }) => Motion::Map(&**map),
+        Some(FrameInput {
+            flow: Some(flow), ..
+        }) => Motion::Flow(&**flow),
+        _ => Motion::Still,
+    };
+    let before = before.map(|b| (LevelSetTarget::new(b), b.background - dx));
+    crate::skin::velocity::surface_velocities(
+        &mesh.positions,
+        &mesh.normals,
+        None,
+        motion,
+        before.as_ref().map(|(t, reach)| (t as &dyn Target, *reach)),
+        duration as f32,
+        dx,
+    )
+}
+
 /// Runs frames `first..=last`: frame `first` is the starting skin, each later frame
 /// advances 1/`fps` seconds toward `input_at(frame)`'s target, carried by the velocities
 /// of the frames at the ends of the interval as `timing` says. Frames
@@ -150,6 +184,9 @@ pub fn run<'t>(
     // Moved on by a resume, which needs OpenVDB.
     #[cfg_attr(not(feature = "vdb"), allow(unused_mut))]
     let mut start = first;
+    // The skin a resume starts from, as written.
+    #[cfg_attr(not(feature = "vdb"), allow(unused_mut))]
+    let mut restored: Option<GridData> = None;
     skin.limit_substeps(Some(crate::skin::MAX_SUBSTEPS));
     outputs.frame_camera(skin.mesh());
     // Without OpenVDB there is no --out to resume from (Outputs refuses it).
@@ -170,6 +207,7 @@ pub fn run<'t>(
                 FrameError::Data(format!("{}: cannot resume from it: {e}", path.display()))
             })?;
             skin.set_time((frame - first) as f64 / fps);
+            restored = Some(data);
             outputs.resume_stats(frame + 1)?;
             outputs.skip((frame - write_from.max(first) + 1) as u64);
             start = frame + 1;
@@ -180,60 +218,90 @@ pub fn run<'t>(
     // uninterrupted run has them from the frame before — even when this frame has no
     // velocity (an empty frame of a cache whose velocity the interval still uses).
     let mut previous: Option<Before<'t>> = None;
+    // The frame before's settled skin, where the surface's velocity is written: its
+    // motion over the frame is measured against it.
+    let velocities = outputs.wants_velocities();
+    let mut settled_before = restored.filter(|_| velocities);
     for frame in start..=last {
         let started = Instant::now();
-        // The volume the frame's input holds, given back as the frame ends.
-        let mut hold = None;
         let duration = 1.0 / fps;
-        let substeps = if frame == first {
-            0
+        let input = if frame == first {
+            // Read only for the velocity it has (the next frame reads it anyway).
+            match velocities && frame >= write_from {
+                true => Some(input_at(frame)?),
+                false => None,
+            }
         } else {
-            let input = input_at(frame)?;
-            let stepped = match &input.carried {
-                Some(map) => {
-                    // The flow map carries the skin; the attraction corrects the shape.
-                    skin.carry(&**map, duration as f32);
-                    skin.advance(&*input.target, duration)
-                }
-                None => {
-                    let Before {
-                        flow: before,
-                        volume: volume_before,
-                    } = match previous.take() {
-                        Some(previous) => previous,
-                        None => Before::of(input_at(frame - 1)?),
-                    };
-                    let mut mean = None;
-                    let flow = timing.interval(before.as_deref(), input.flow.as_deref(), &mut mean);
-                    match flow {
-                        // One trace over the frame, then the attraction.
-                        Some(flow) => skin.follow(&*input.target, flow, duration, volume_before),
-                        None => skin.advance(&*input.target, duration),
+            Some(input_at(frame)?)
+        };
+        let substeps = match &input {
+            Some(input) if frame != first => {
+                let stepped = match &input.carried {
+                    Some(map) => {
+                        // The flow map carries the skin; the attraction corrects the shape.
+                        skin.carry(&**map, duration as f32);
+                        skin.advance(&*input.target, duration)
                     }
+                    None => {
+                        let Before {
+                            flow: before,
+                            volume: volume_before,
+                        } = match previous.take() {
+                            Some(previous) => previous,
+                            None => Before::of(input_at(frame - 1)?),
+                        };
+                        let mut mean = None;
+                        let flow =
+                            timing.interval(before.as_deref(), input.flow.as_deref(), &mut mean);
+                        match flow {
+                            // One trace over the frame, then the attraction.
+                            Some(flow) => {
+                                skin.follow(&*input.target, flow, duration, volume_before)
+                            }
+                            None => skin.advance(&*input.target, duration),
+                        }
+                    }
+                };
+                if let Some(stopped) = stepped.stopped {
+                    return Err(FrameError::Data(format!(
+                        "frame {frame} ({duration:.3e} s at {fps} fps) {stopped}"
+                    )));
                 }
-            };
-            if let Some(stopped) = stepped.stopped {
-                return Err(FrameError::Data(format!(
-                    "frame {frame} ({duration:.3e} s at {fps} fps) {stopped}"
-                )));
+                if input.seed {
+                    skin.seed(&*input.target);
+                }
+                stepped.substeps
             }
-            let substeps = stepped.substeps;
-            if input.seed {
-                skin.seed(&*input.target);
-            }
-            hold = input.volume;
-            previous = Some(Before::of(input));
-            substeps
+            _ => 0,
         };
+        // The volume the frame's input holds, given back as the frame ends.
+        let hold = input
+            .as_ref()
+            .filter(|_| frame != first)
+            .and_then(|i| i.volume);
         let level_set = skin.settle_holding(hold);
-        if frame < write_from {
-            continue;
+        if frame >= write_from {
+            let stats = crate::skin::StepStats {
+                substeps,
+                ..skin.stats_with(outputs.reports_topology())
+            };
+            let surface = velocities.then(|| {
+                surface_velocities(&skin, input.as_ref(), settled_before.as_ref(), duration)
+            });
+            outputs.write_frame(
+                frame,
+                (&skin, &level_set),
+                surface.as_deref(),
+                &stats,
+                started,
+            )?;
         }
-        let stats = crate::skin::StepStats {
-            substeps,
-            ..skin.stats_with(outputs.reports_topology())
-        };
-        outputs.write_frame(frame, &skin, &level_set, &stats, started)?;
+        if let Some(input) = input {
+            previous = Some(Before::of(input));
+        }
+        if velocities {
+            settled_before = Some(level_set);
+        }
     }
     outputs.finish();
     Ok(())

@@ -13,6 +13,7 @@ mod export;
 mod seed;
 pub mod speed;
 mod timestep;
+pub mod velocity;
 
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;

@@ -56,6 +56,7 @@ fn run_library(into: &Path) {
         }),
         stats_fields: Default::default(),
         reads: vec![input.pattern.clone()],
+        velocities: true,
     };
     let mut outputs = Outputs::new(&spec, (1, 4)).unwrap();
     let run = ParticleRun {

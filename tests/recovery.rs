@@ -17,7 +17,9 @@ const FRAMES: usize = 24;
 
 fn args(out: &Path, resume: bool) -> Vec<String> {
     let vdb = out.join("m.####.vdb");
-    let obj = out.join("m.####.obj");
+    // PLY: the meshes carry the surface's velocity, measured against the frame before,
+    // which a resume reads back from its VDB.
+    let ply = out.join("m.####.ply");
     let mut args: Vec<String> = [
         "morph",
         "--from",
@@ -31,7 +33,7 @@ fn args(out: &Path, resume: bool) -> Vec<String> {
         "--out",
         vdb.to_str().unwrap(),
         "--mesh",
-        obj.to_str().unwrap(),
+        ply.to_str().unwrap(),
         "-q",
     ]
     .iter()
@@ -69,17 +71,17 @@ fn run_and_kill(out: &Path, resume: bool, delay: Duration) -> bool {
     true
 }
 
-/// Every VDB frame on disk opens with its one grid, and every OBJ is whole.
+/// Every VDB frame on disk opens with its one grid, and every mesh is whole.
 fn assert_frames_whole(dir: &Path) {
     for name in names(dir) {
         let path = dir.join(&name);
         if name.ends_with(".vdb") && !name.starts_with('.') {
             assert_eq!(vdb::list_grids(&path).unwrap().len(), 1, "{name}");
         }
-        if name.ends_with(".obj") && !name.starts_with('.') {
-            let text = std::fs::read_to_string(&path).unwrap();
+        if name.ends_with(".ply") && !name.starts_with('.') {
+            let mesh = std::panic::catch_unwind(|| common::read_mesh(&path));
             assert!(
-                text.lines().any(|l| l.starts_with("f ")),
+                mesh.is_ok_and(|m| m.is_some_and(|m| !m.triangles.is_empty())),
                 "{name} cut short"
             );
         }
@@ -139,6 +141,16 @@ fn killed_at_random_moments_then_resumed_equals_uninterrupted() {
                 .all(|(a, b)| a.to_bits() == b.to_bits()),
             "trial {trial}: last frame differs after {kills} kills"
         );
+        // Every mesh, velocities included (each frame's measured against the frame
+        // before, which a resume read back from its VDB).
+        for frame in 1..=FRAMES {
+            let name = format!("m.{frame:04}.ply");
+            let read = |dir: &Path| std::fs::read(dir.join(&name)).unwrap();
+            assert!(
+                read(whole.path()) == read(part.path()),
+                "trial {trial}: {name} differs after {kills} kills"
+            );
+        }
     }
 }
 

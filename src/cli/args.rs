@@ -156,6 +156,11 @@ pub struct OutputArgs {
     /// Continue from the last skin VDB already written by --out.
     #[arg(long)]
     pub resume: bool,
+    /// The surface's velocity (world units per second) on each vertex of PLY meshes
+    /// (`vx vy vz`), for motion blur: the material's motion (the particles', the
+    /// velocity grid's) and the skin's own across it; `off` leaves it out.
+    #[arg(long, value_name = "on|off", default_value = "on", value_parser = clap::builder::BoolishValueParser::new())]
+    pub velocities: bool,
     /// No progress output.
     #[arg(long, short)]
     pub quiet: bool,
@@ -178,6 +183,7 @@ impl OutputArgs {
             progress: (!self.quiet).then(super::progress::shown),
             stats_fields: Default::default(),
             reads: Vec::new(),
+            velocities: self.velocities,
         })
     }
 }

@@ -42,6 +42,7 @@ fn outputs(dir: &Path, name: &str, quiet: bool) -> OutputArgs {
         stats: Some(dir.join(format!("{name}/stats.jsonl"))),
         resume: false,
         quiet,
+        velocities: true,
     }
 }
 

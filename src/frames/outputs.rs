@@ -72,6 +72,9 @@ pub struct OutputSpec {
     pub stats_fields: serde_json::Map<String, serde_json::Value>,
     /// The files the run reads: no output may overwrite one of them.
     pub reads: Vec<FramePattern>,
+    /// The surface's velocity per vertex, for motion blur, in the outputs that hold one
+    /// (PLY meshes).
+    pub velocities: bool,
 }
 
 /// Writes each frame's outputs and reports progress.
@@ -84,6 +87,7 @@ pub struct Outputs {
     stats: Option<(PathBuf, Vec<u8>)>,
     stats_fields: serde_json::Map<String, serde_json::Value>,
     progress: Option<Progress>,
+    velocities: bool,
 }
 
 impl Outputs {
@@ -147,6 +151,7 @@ impl Outputs {
             stats: spec.stats.clone().map(|p| (p, Vec::new())),
             stats_fields: spec.stats_fields.clone(),
             progress: spec.progress.clone(),
+            velocities: spec.velocities,
         })
     }
 
@@ -172,6 +177,16 @@ impl Outputs {
         self.resume
     }
 
+    /// Whether a frame's surface velocities are written: asked for, and an output holds
+    /// them.
+    pub fn wants_velocities(&self) -> bool {
+        self.velocities
+            && self
+                .mesh
+                .as_ref()
+                .is_some_and(|m| crate::io::mesh::holds_values(&m.path(0)))
+    }
+
     /// The skin VDB of a frame, if --out was given and the file exists.
     pub fn written_skin(&self, frame: i64) -> Option<PathBuf> {
         let path = self.out.as_ref()?.path(frame);
@@ -179,17 +194,19 @@ impl Outputs {
     }
 
     /// Writes one frame: `level_set` is the skin's settled state
-    /// ([`AnySkin::settle`]), `stats` measured on it.
+    /// ([`AnySkin::settle`]), `stats` measured on it, `velocities` its mesh's
+    /// ([`Outputs::wants_velocities`]).
     pub fn write_frame(
         &mut self,
         frame: i64,
-        skin: &AnySkin,
-        level_set: &GridData,
+        (skin, level_set): (&AnySkin, &GridData),
+        velocities: Option<&[glam::Vec3]>,
         stats: &StepStats,
         started: Instant,
     ) -> Result<(), FrameError> {
         if let Some(pattern) = &self.mesh {
-            crate::io::mesh::write(skin.mesh(), &pattern.path(frame))?;
+            let values = crate::io::mesh::VertexValues { velocities };
+            crate::io::mesh::write_with_values(skin.mesh(), values, &pattern.path(frame))?;
         }
         if let Some((pattern, size, camera)) = &mut self.render {
             let data = level_set;

@@ -48,13 +48,32 @@ pub fn is_written(path: &Path) -> bool {
 
 /// OBJ or PLY by the file's extension.
 pub fn write(mesh: &Mesh, path: &Path) -> Result<(), MeshError> {
+    write_with_values(mesh, VertexValues::default(), path)
+}
+
+/// Values per vertex written beside the positions and normals, where the format holds
+/// them (PLY; OBJ has no place for them).
+#[derive(Debug, Default, Clone, Copy)]
+pub struct VertexValues<'a> {
+    /// The surface's velocity, world units per second (`vx vy vz`: Houdini reads them as
+    /// `v`, Blender as the `velocity` attribute), for motion blur.
+    pub velocities: Option<&'a [glam::Vec3]>,
+}
+
+/// Whether a mesh file at `path` keeps [`VertexValues`].
+pub fn holds_values(path: &Path) -> bool {
+    super::has_extension(path, &["ply"])
+}
+
+/// [`write`] with the vertices' values.
+pub fn write_with_values(mesh: &Mesh, values: VertexValues, path: &Path) -> Result<(), MeshError> {
     match path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
     {
         Some(e) if e == "obj" => super::obj::write(mesh, path),
-        Some(e) if e == "ply" => super::ply::write_mesh(mesh, path),
+        Some(e) if e == "ply" => super::ply::write_mesh(mesh, values, path),
         _ => Err(MeshError::new(path, MeshFault::Extension)),
     }
 }

@@ -6,7 +6,7 @@ use std::path::Path;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::mesh::{write_records, write_with, MeshError};
+use super::mesh::{write_records, write_with, MeshError, VertexValues};
 use super::particles::ParticleError;
 use super::scalar::Scalar;
 use crate::mesh::Mesh;
@@ -305,23 +305,34 @@ pub fn write_particles(path: &Path, particles: &Particles) -> Result<(), Particl
         .map_err(|e| ParticleError::new(path, e))
 }
 
-/// Binary little-endian PLY with normals, its body laid out in parallel.
-pub fn write_mesh(mesh: &Mesh, path: &Path) -> Result<(), MeshError> {
+/// Binary little-endian PLY with normals and, when given, velocities (`vx vy vz`), its
+/// body laid out in parallel.
+pub fn write_mesh(mesh: &Mesh, values: VertexValues, path: &Path) -> Result<(), MeshError> {
+    let velocities = values
+        .velocities
+        .filter(|v| v.len() == mesh.positions.len());
+    let floats = 6 + 3 * usize::from(velocities.is_some());
     write_with(path, |w| {
         write!(
             w,
             "ply\nformat binary_little_endian 1.0\ncomment activeskin {}\n\
              element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
-             property float nx\nproperty float ny\nproperty float nz\n\
+             property float nx\nproperty float ny\nproperty float nz\n{}\
              element face {}\nproperty list uchar int vertex_indices\nend_header\n",
             env!("CARGO_PKG_VERSION"),
             mesh.positions.len(),
+            match velocities {
+                Some(_) => "property float vx\nproperty float vy\nproperty float vz\n",
+                None => "",
+            },
             mesh.triangles.len()
         )?;
-        write_records(w, &mesh.positions, 24, |i, p, out| {
+        write_records(w, &mesh.positions, 4 * floats, |i, p, out| {
             let n = mesh.normals[i];
-            for (k, v) in [p.x, p.y, p.z, n.x, n.y, n.z].into_iter().enumerate() {
-                out[4 * k..4 * k + 4].copy_from_slice(&v.to_le_bytes());
+            let v = velocities.map_or(Vec3::ZERO, |v| v[i]);
+            let record = [p.x, p.y, p.z, n.x, n.y, n.z, v.x, v.y, v.z];
+            for (k, x) in record[..floats].iter().enumerate() {
+                out[4 * k..4 * k + 4].copy_from_slice(&x.to_le_bytes());
             }
         })?;
         write_records(w, &mesh.triangles, 13, |_, t, out| {

@@ -60,6 +60,9 @@ impl AnySkin {
     pub fn stats(&self) -> StepStats {
         each!(self, s => s.stats())
     }
+    pub fn params(&self) -> &SkinParams {
+        each!(self, s => s.params())
+    }
     pub fn stats_with(&self, topology: bool) -> StepStats {
         each!(self, s => s.stats_with(topology))
     }

@@ -185,8 +185,9 @@ pub fn assert_clean_meshes(dir: &Path) -> usize {
     checked
 }
 
-/// An OBJ, or a binary little-endian PLY as activeskin writes it (x y z nx ny nz floats,
-/// uchar-counted int faces); `None` for a file with no faces (a particle file).
+/// An OBJ, or a binary little-endian PLY as activeskin writes it (x y z nx ny nz [vx vy
+/// vz] floats, uchar-counted int faces); `None` for a file with no faces (a particle
+/// file).
 pub fn read_mesh(path: &Path) -> Option<Mesh> {
     let bytes = std::fs::read(path).unwrap();
     if path
@@ -207,12 +208,20 @@ pub fn read_mesh(path: &Path) -> Option<Mesh> {
         return None; // not one of ours
     }
     let vertices = count("element vertex")?;
+    // x y z nx ny nz, then vx vy vz when the velocities are written.
+    let stride = 4 * header
+        .lines()
+        .skip_while(|l| !l.starts_with("element vertex"))
+        .take_while(|l| !l.starts_with("element face"))
+        .filter(|l| l.starts_with("property float"))
+        .count();
     let word = |o: usize| -> [u8; 4] { bytes[o..o + 4].try_into().unwrap() };
     for v in 0..vertices {
-        let f = |k: usize| f32::from_le_bytes(word(end + v * 24 + 4 * k));
+        let f = |k: usize| f32::from_le_bytes(word(end + v * stride + 4 * k));
         mesh.positions.push(Vec3::new(f(0), f(1), f(2)));
+        mesh.normals.push(Vec3::new(f(3), f(4), f(5)));
     }
-    let start = end + vertices * 24;
+    let start = end + vertices * stride;
     for t in 0..faces {
         let o = start + t * 13;
         assert_eq!(
