@@ -240,27 +240,8 @@ fn a_carried_run_resumes_bit_for_bit() {
     write_shot(dir.path(), 10);
     let pattern = dir.path().join("ball_$F.ply");
     let run = |out: &Path, resume: bool| {
-        let vdb = out.join("s.####.vdb");
-        // PLY: with the velocities, measured against the frame before.
-        let ply = out.join("s.####.ply");
-        let mut args = vec![
-            "particles",
-            "--particles",
-            pattern.to_str().unwrap(),
-            "--radius",
-            "0.01",
-            "--voxel-size",
-            "0.01",
-            "--out",
-            vdb.to_str().unwrap(),
-            "--mesh",
-            ply.to_str().unwrap(),
-            "-q",
-        ];
-        if resume {
-            args.push("--resume");
-        }
-        common::assert_ok(&common::activeskin(&args));
+        let extra: &[&str] = if resume { &["--resume"] } else { &[] };
+        skin_into(&pattern, out, extra);
     };
     let whole = dir.path().join("whole");
     run(&whole, false);
@@ -282,6 +263,28 @@ fn a_carried_run_resumes_bit_for_bit() {
             "{name} differs after a resume"
         );
     }
+}
+
+/// `activeskin particles` on `pattern` at r = voxel = 0.01 into `into/s.####.{vdb,ply}`
+/// (PLY: with the velocities, measured against the frame before), plus `extra`.
+fn skin_into(pattern: &Path, into: &Path, extra: &[&str]) {
+    let (vdb, ply) = (into.join("s.####.vdb"), into.join("s.####.ply"));
+    let mut args = vec![
+        "particles",
+        "--particles",
+        pattern.to_str().unwrap(),
+        "--radius",
+        "0.01",
+        "--voxel-size",
+        "0.01",
+        "--out",
+        vdb.to_str().unwrap(),
+        "--mesh",
+        ply.to_str().unwrap(),
+        "-q",
+    ];
+    args.extend_from_slice(extra);
+    common::assert_ok(&common::activeskin(&args));
 }
 
 /// How far each vertex of frame f's PLY mesh, moved by its velocity over a frame, lands
@@ -328,24 +331,7 @@ fn the_meshes_velocities_carry_their_vertices_onto_the_next_frame() {
         write_frame(&dir.path().join(format!("moving_{f}.ply")), &points);
     }
     write_shot(dir.path(), 10);
-    let run = |input: &str, into: &Path| {
-        let pattern = dir.path().join(input);
-        let (vdb, ply) = (into.join("s.####.vdb"), into.join("s.####.ply"));
-        common::assert_ok(&common::activeskin(&[
-            "particles",
-            "--particles",
-            pattern.to_str().unwrap(),
-            "--radius",
-            "0.01",
-            "--voxel-size",
-            "0.01",
-            "--out",
-            vdb.to_str().unwrap(),
-            "--mesh",
-            ply.to_str().unwrap(),
-            "-q",
-        ]));
-    };
+    let run = |input: &str, into: &Path| skin_into(&dir.path().join(input), into, &[]);
     let (moving, thrown) = (dir.path().join("moving"), dir.path().join("thrown"));
     run("moving_$F.ply", &moving);
     run("ball_$F.ply", &thrown);
