@@ -121,13 +121,26 @@ where
 
 /// The temporaries being written now (by any thread), for [`remove_temporaries`].
 static WRITING: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+/// Signalled each time a temporary is renamed or removed (its [`Writing`] dropped).
+static WRITTEN: std::sync::Condvar = std::sync::Condvar::new();
+/// Set once the process is stopping: no new temporary is started after it.
+static STOPPING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
 /// A temporary listed in [`WRITING`] while it lives.
 struct Writing(PathBuf);
 
 impl Writing {
     fn register(tmp: &Path) -> Self {
-        writing().push(tmp.to_path_buf());
+        let mut list = writing();
+        if STOPPING.load(std::sync::atomic::Ordering::SeqCst) {
+            // The process is about to exit: this output is not started (and so cannot be
+            // left half-written under its temporary name); the thread waits for the end.
+            drop(list);
+            loop {
+                std::thread::park();
+            }
+        }
+        list.push(tmp.to_path_buf());
         Writing(tmp.to_path_buf())
     }
 }
@@ -138,6 +151,7 @@ impl Drop for Writing {
         if let Some(at) = list.iter().position(|p| *p == self.0) {
             list.swap_remove(at);
         }
+        WRITTEN.notify_all();
     }
 }
 
@@ -148,13 +162,23 @@ fn writing() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
         .unwrap_or_else(|poisoned| poisoned.into_inner())
 }
 
-/// Removes the temporaries being written now: for a process stopped by a signal
-/// (SIGTERM from a farm's scheduler, Ctrl-C), which then leaves no hidden `.tmp` behind;
-/// the outputs it had finished stay whole.
-pub fn remove_temporaries() {
-    for tmp in writing().drain(..) {
+/// For a process stopped by a signal (SIGTERM from a farm's scheduler, Ctrl-C): no new
+/// output is started, the ones being written are given up to `grace` to finish (renamed
+/// whole to their names), and the temporaries of those that did not are removed, so that
+/// no hidden `.tmp` is left behind. Removing a temporary as soon as the signal came would
+/// race its writer, which may create it a moment later. Call it once, just before exiting.
+pub fn remove_temporaries(grace: std::time::Duration) {
+    STOPPING.store(true, std::sync::atomic::Ordering::SeqCst);
+    let list = writing();
+    let (mut list, _) = WRITTEN
+        .wait_timeout_while(list, grace, |list| !list.is_empty())
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    // A writer still going after the grace has long created its temporary.
+    for tmp in list.drain(..) {
         let _ = std::fs::remove_file(tmp);
     }
+    // The guard is leaked so that no writer takes the list again before the exit.
+    std::mem::forget(list);
 }
 
 /// A new file whose bytes are handed to the kernel's writeback every few megabytes as they

@@ -9,8 +9,9 @@ fn main() -> ExitCode {
 }
 
 /// SIGTERM (a farm scheduler's cancel or time limit), SIGINT (Ctrl-C) and SIGHUP stop the
-/// run as they would, but first remove the output being written under its temporary
-/// name: the frames already written stay, and no hidden `.tmp` is left behind (a resume
+/// run as they would, but first let the outputs being written finish (or remove them
+/// under their temporary names): the frames already written stay, and no hidden `.tmp`
+/// is left behind (a resume
 /// would remove it, a user looking at the folder would not know to). Handled on a thread
 /// of its own (signal-hook's self-pipe), where removing files is allowed; the children a
 /// bench starts get the default dispositions back when they exec.
@@ -21,7 +22,9 @@ fn clean_up_when_stopped() {
     };
     std::thread::spawn(move || {
         if let Some(signal) = signals.forever().next() {
-            activeskin::io::remove_temporaries();
+            // A frame's outputs take well under a second to write; a scheduler gives
+            // tens of seconds between SIGTERM and SIGKILL.
+            activeskin::io::remove_temporaries(std::time::Duration::from_secs(3));
             // Ends the process as the signal's default action does (its exit status).
             let _ = signal_hook::low_level::emulate_default_handler(signal);
             std::process::exit(128 + signal);
