@@ -42,7 +42,25 @@ fn default_bytes() -> u64 {
     total.min(address_space) / 4 * 3
 }
 
-/// `bytes` in GB for messages.
-pub fn gb(bytes: u64) -> String {
-    format!("{:.1} GB", bytes as f64 / 1e9)
+/// `bytes` for messages, in kB, MB, GB or TB.
+pub fn size(bytes: u64) -> String {
+    let b = bytes as f64;
+    let (value, unit) = match b {
+        _ if b < 1e6 => (b / 1e3, "kB"),
+        _ if b < 1e9 => (b / 1e6, "MB"),
+        _ if b < 1e12 => (b / 1e9, "GB"),
+        _ => (b / 1e12, "TB"),
+    };
+    format!("{value:.1} {unit}")
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn sizes_read_in_their_unit() {
+        assert_eq!(super::size(4_670_712), "4.7 MB");
+        assert_eq!(super::size(3_100_000_000), "3.1 GB");
+        assert_eq!(super::size(250_150_000_000_000), "250.2 TB");
+        assert_eq!(super::size(100_000), "100.0 kB");
+    }
 }

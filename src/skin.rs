@@ -164,6 +164,33 @@ impl std::fmt::Display for Stopped {
 /// thousand sub-steps of a band of 600 k nodes are two minutes; 10 000 were allowed).
 pub const MAX_SUBSTEPS: u32 = 1_000;
 
+/// What a block within reach of the start's surface costs while a skin runs: its
+/// potential, its rate, its advection's and renormalisation's scratch, its share of the
+/// mesh and of the crossings. Measured with `morph` on spheres 125 and 500 voxels in
+/// radius (7.5 k and 124 k such blocks, 0.2 and 2.5 GB at their peak): 40–55 bytes a
+/// node, here 48.
+const BAND_BLOCK_BYTES: f64 = (48 * BLOCK_NODES) as f64;
+
+/// What listing the blocks around `target` costs (16 bytes each, with their distances).
+fn fits_budget(target: &dyn Target, dx: f32, w: f32, budget: u64) -> Result<(), SkinError> {
+    let xf = IndexToWorld {
+        origin: Vec3::ZERO,
+        dx,
+    };
+    check_budget(seed::blocks_listed(target, xf, w) * 16.0, dx, budget)
+}
+
+fn check_budget(needed: f64, dx: f32, budget: u64) -> Result<(), SkinError> {
+    if needed <= budget as f64 {
+        return Ok(());
+    }
+    Err(SkinError::OverBudget {
+        needed: needed.min(u64::MAX as f64) as u64,
+        budget,
+        dx,
+    })
+}
+
 /// A skin stored with potential type `P`.
 pub struct Skin<P> {
     grid: SparseGrid<P>,
@@ -193,12 +220,17 @@ impl<P: Potential> Skin<P> {
     /// [`Skin::new`] with its parameters checked first ([`SkinParams::check`]).
     pub fn try_new(start: &dyn Target, params: SkinParams) -> Result<Self, SkinError> {
         params.check()?;
-        Ok(Self::new(start, params))
+        Self::build(start, params, crate::budget::bytes())
     }
 
     /// A skin whose zero set is the surface of `start`, sampled on voxels of `params.dx`
     /// (parameters as given: [`Skin::try_new`] checks them).
     pub fn new(start: &dyn Target, params: SkinParams) -> Self {
+        Self::build(start, params, u64::MAX).expect("no memory budget to exceed")
+    }
+
+    /// [`Skin::new`] within a memory budget of `budget` bytes.
+    fn build(start: &dyn Target, params: SkinParams, budget: u64) -> Result<Self, SkinError> {
         let dx = params.dx;
         let w = params.band_width;
         let xf = IndexToWorld {
@@ -206,7 +238,10 @@ impl<P: Potential> Skin<P> {
             dx,
         };
         let reach = seed::block_reach(w, dx);
+        fits_budget(start, dx, w, budget)?;
         let classified = seed::classify_blocks(start, xf, w);
+        let band = classified.iter().filter(|(_, d)| d.abs() <= reach).count();
+        check_budget(band as f64 * BAND_BLOCK_BYTES, dx, budget)?;
         let mut grid = SparseGrid::new();
         for (c, d) in classified {
             if d > reach {
@@ -263,7 +298,15 @@ impl<P: Potential> Skin<P> {
         skin.polygonize();
         skin.rest_area = skin.area;
         skin.rest_volume = skin.volume;
-        skin
+        Ok(skin)
+    }
+
+    /// Whether seeding the skin from `target` ([`Skin::seed`], every frame) fits the
+    /// memory budget: a target far larger than the voxels (an analytic shape kilometres
+    /// across at millimetre voxels) is refused before its blocks are listed.
+    pub fn check_target(&self, target: &dyn Target) -> Result<(), SkinError> {
+        let (dx, w) = (self.params.dx, self.params.band_width);
+        fits_budget(target, dx, w, crate::budget::bytes())
     }
 
     pub fn params(&self) -> &SkinParams {
@@ -699,6 +742,13 @@ impl Default for RatesScratch {
 pub enum SkinError {
     #[error("cannot restore the skin: {0}")]
     Incompatible(String),
+    /// The skin's blocks around a target would take more than the memory budget.
+    #[error(
+        "the skin's band would take {} at voxels of {dx}, over the memory budget of {}: give a larger voxel size (or --max-memory)",
+        crate::budget::size(*needed),
+        crate::budget::size(*budget)
+    )]
+    OverBudget { needed: u64, budget: u64, dx: f32 },
     /// A parameter out of its range ([`SkinParams::check`]); `name` is the field's.
     #[error("{name} must be {must}, got {value}")]
     Parameter {

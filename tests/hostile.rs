@@ -243,7 +243,7 @@ fn the_memory_budget_is_an_option() {
     common::assert_fails(&run("nan"), 2, "--max-memory", "nan");
     let out = run("0.0001");
     common::assert_fails(&out, 1, "p.0001.ply", "100 kB");
-    assert!(common::stderr(&out).contains("memory budget of 0.0 GB"));
+    assert!(common::stderr(&out).contains("memory budget of 100.0 kB"));
     common::assert_ok(&run("2"));
 }
 
@@ -293,4 +293,87 @@ fn run_seed(seed: u64, failures: &mut Vec<String>) {
             ));
         }
     }
+}
+
+/// An analytic shape far larger than its voxels — as the start or as the target — is
+/// refused in one line before its blocks are listed (a sphere of radius 1 at voxels of
+/// 1e-4 used to abort asking for 3.9 GB; one of radius 1000 as the target, 250 TB).
+#[test]
+fn a_shape_too_large_for_its_voxels_is_refused_within_the_budget() {
+    let dir = common::scratch();
+    let mesh = dir.path().join("m.####.obj");
+    let morph = |from: &str, to: &str, voxel: &str, budget: &str| {
+        let start = Instant::now();
+        let out = common::activeskin_bounded(&[
+            "morph",
+            "--from",
+            from,
+            "--to",
+            to,
+            "--voxel-size",
+            voxel,
+            "--frames",
+            "1-1",
+            "--mesh",
+            mesh.to_str().unwrap(),
+            "--max-memory",
+            budget,
+            "-q",
+        ]);
+        assert!(start.elapsed().as_secs() < 10, "{from} → {to}");
+        out
+    };
+    for (from, to, voxel) in [
+        ("sphere:r=1", "sphere:r=1", "1e-4"),
+        ("sphere:r=0.1", "sphere:r=1000", "1e-2"),
+    ] {
+        let out = morph(from, to, voxel, "2");
+        common::assert_fails(&out, 1, "memory budget of 2.0 GB", to);
+        assert!(common::stderr(&out).contains("voxel size"), "{to}");
+    }
+    // The band's own estimate: a sphere 125 voxels in radius takes 0.2 GB.
+    common::assert_fails(
+        &morph("sphere:r=1", "sphere:r=1", "8e-3", "0.1"),
+        1,
+        "over the memory budget of 100.0 MB",
+        "band",
+    );
+    common::assert_ok(&morph("sphere:r=1", "sphere:r=1", "8e-3", "1"));
+    assert_eq!(common::names(dir.path()), vec!["m.0001.obj".to_string()]);
+}
+
+/// A VDB grid larger in memory than the budget is refused before OpenVDB reads it, from
+/// the size its writer recorded (OpenVDB's `file_mem_bytes`).
+#[test]
+fn a_vdb_grid_over_the_budget_is_refused_before_it_is_read() {
+    let dir = common::scratch();
+    let path = dir.path().join("sphere.vdb");
+    let sphere = Grid::level_set_sphere(1.0, [0.0; 3], 0.02, 3.0).unwrap();
+    let meta = activeskin::vdb::FileMetadata {
+        creator: "test".into(),
+        has_frame: false,
+        frame: 0,
+    };
+    activeskin::vdb::write_grids(&path, &[(&sphere, Default::default())], &meta).unwrap();
+    let recorded = activeskin::vdb::recorded_memory(&path, Some("surface"))
+        .unwrap()
+        .unwrap();
+    // 188 574 active voxels in about 2 200 leaves of 2 KB, with the upper nodes.
+    assert!(
+        (2_000_000..8_000_000).contains(&recorded),
+        "recorded {recorded} bytes"
+    );
+    let mesh = |budget: &str| {
+        common::activeskin(&[
+            "mesh",
+            path.to_str().unwrap(),
+            dir.path().join("m.obj").to_str().unwrap(),
+            "--max-memory",
+            budget,
+        ])
+    };
+    let out = mesh("0.001");
+    common::assert_fails(&out, 1, "sphere.vdb", "over the budget");
+    assert!(common::stderr(&out).contains("as its writer recorded"));
+    common::assert_ok(&mesh("0.05"));
 }

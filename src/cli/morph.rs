@@ -105,7 +105,8 @@ pub fn run(args: &MorphArgs) -> anyhow::Result<()> {
     let params = args
         .physics
         .params(from_dx.or(to_dx).unwrap_or(1.0 / 32.0))?;
-    let skin = AnySkin::new(&*from, params);
+    let skin = AnySkin::try_new(&*from, params)?;
+    skin.check_target(&*to)?;
     let to = &to;
     run_frames(
         range,

@@ -273,9 +273,9 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
             };
             let grid = args.grid.as_deref().filter(has_grid);
             let init = read_target_in(path, grid, None, units)?.target;
-            AnySkin::new(&*init, params)
+            AnySkin::try_new(&*init, params)?
         }
-        None => AnySkin::new(&*first_target, params),
+        None => AnySkin::try_new(&*first_target, params)?,
     };
     drop(first_target);
     let mut spec = args.outputs.spec()?;

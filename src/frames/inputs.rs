@@ -263,10 +263,10 @@ impl ParticleInput {
             FrameError::Data(format!(
                 "{}: the particles' density would take {} at voxels of {} (kernels of {} across), over the memory budget of {}: give a larger --voxel-size (or --max-memory)",
                 path.display(),
-                crate::budget::gb(needed),
+                crate::budget::size(needed),
                 self.dx,
                 2.0 * support * self.radius,
-                crate::budget::gb(budget)
+                crate::budget::size(budget)
             ))
         })?;
         // The fog volume (OpenVDB only: check() refuses --density-out without it).

@@ -97,7 +97,7 @@ impl ParticleRun<'_> {
         // density whose kernel barely spans the spacing would each become a skin to remove.
         let (mut first, _, count) = frame_at(range.0)?;
         first.fill_voids(self.particles.void_volume());
-        let skin = AnySkin::new(&first, self.params);
+        let skin = AnySkin::try_new(&first, self.params)?;
         let share = match self.hold_volume {
             false => None,
             // The sequence's first frame sets it: every run, chunk and resume of the
@@ -166,7 +166,7 @@ impl ParticleRun<'_> {
             ..
         } = reader.frame(&path, frame, None, duration)?;
         density.fill_voids(reader.void_volume());
-        let volume = AnySkin::new(&density, self.params).stats().volume;
+        let volume = AnySkin::try_new(&density, self.params)?.stats().volume;
         Ok(Some(volume / held(&particles, reader)))
     }
 }

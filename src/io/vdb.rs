@@ -103,6 +103,7 @@ impl Grid {
     /// Reads one float grid: `name`, or the first float grid of the file when `None`.
     pub fn read(path: &Path, name: Option<&str>) -> Result<Self, VdbError> {
         let layout = check_vdb_file(path)?;
+        check_memory(path, &layout, name, "Tree_float_")?;
         let chosen = if layout.has_offsets {
             Some(
                 layout
@@ -316,7 +317,8 @@ pub struct VectorWrite<'a> {
 
 /// The vector grid `name` of a file, or its first vec3s/vec3d grid.
 pub fn read_vector_grid(path: &Path, name: Option<&str>) -> Result<VectorGrid, VdbError> {
-    check_vdb_file(path)?;
+    let layout = check_vdb_file(path)?;
+    check_memory(path, &layout, name, "Tree_vec3")?;
     let b = ffi::bridge::read_vector_grid(&path.to_string_lossy(), name.unwrap_or(""))
         .map_err(|e| openvdb_read_error(path, &e))?;
     let triples =
@@ -421,7 +423,8 @@ fn verify_written(tmp: &Path) -> Result<(), WriteFault> {
 /// Positions (world space) and `pscale` radii of a point data grid, as Houdini's VDB from
 /// Points writes them: the grid `name`, or the first point data grid of the file.
 pub fn read_points(path: &Path, name: Option<&str>) -> Result<ffi::bridge::PointBuffers, VdbError> {
-    check_vdb_file(path)?;
+    let layout = check_vdb_file(path)?;
+    check_memory(path, &layout, name, "Tree_ptdataidx")?;
     ffi::bridge::read_points(&path.to_string_lossy(), name.unwrap_or(""))
         .map_err(|e| openvdb_read_error(path, &e))
 }
@@ -536,6 +539,39 @@ fn check_vdb_file(path: &Path) -> Result<layout::Layout, VdbError> {
     let file = std::fs::File::open(path).map_err(|e| VdbError::file(path, io_reason(&e)))?;
     let meta = file.metadata().map_err(|e| VdbError::file(path, e))?;
     layout::check(std::io::BufReader::new(file), meta.len()).map_err(|m| VdbError::file(path, m))
+}
+
+/// The size in memory of grid `name` (of the first float grid when `None`) as the file's
+/// writer recorded it (OpenVDB's `file_mem_bytes`), when it did.
+pub fn recorded_memory(path: &Path, name: Option<&str>) -> Result<Option<u64>, VdbError> {
+    Ok(check_vdb_file(path)?.recorded_memory(name, "Tree_float_"))
+}
+
+/// Refuses, before OpenVDB reads it, a grid whose size in memory (as its writer recorded
+/// it) is over the memory budget twice over: OpenVDB's tree and the copy made of it live
+/// together while it is read.
+fn check_memory(
+    path: &Path,
+    layout: &layout::Layout,
+    name: Option<&str>,
+    kind: &str,
+) -> Result<(), VdbError> {
+    let Some(bytes) = layout.recorded_memory(name, kind) else {
+        return Ok(());
+    };
+    let (needed, budget) = (bytes.saturating_mul(2), crate::budget::bytes());
+    if needed <= budget {
+        return Ok(());
+    }
+    Err(VdbError::file(
+        path,
+        format!(
+            "reading it would take {} (the grid is {} in memory as its writer recorded, and it is copied), over the memory budget of {}: give --max-memory to allow more",
+            crate::budget::size(needed),
+            crate::budget::size(bytes),
+            crate::budget::size(budget)
+        ),
+    ))
 }
 
 /// An error OpenVDB raised while reading a file that passed [`layout::check`].

@@ -25,8 +25,14 @@ macro_rules! each {
 impl AnySkin {
     /// [`AnySkin::new`] with its parameters checked first ([`SkinParams::check`]).
     pub fn try_new(start: &dyn Target, params: SkinParams) -> Result<Self, SkinError> {
-        params.check()?;
-        Ok(Self::new(start, params))
+        Ok(match params.precision {
+            Precision::F32 => AnySkin::F32(Skin::try_new(start, params)?),
+            Precision::Fixed16 => AnySkin::Fixed16(Skin::try_new(start, params)?),
+        })
+    }
+    /// [`Skin::check_target`].
+    pub fn check_target(&self, target: &dyn Target) -> Result<(), SkinError> {
+        each!(self, s => s.check_target(target))
     }
     pub fn new(start: &dyn Target, params: SkinParams) -> Self {
         match params.precision {

@@ -45,6 +45,33 @@ pub(super) fn blocks_around(
     xf: IndexToWorld,
     band_width: f32,
 ) -> Vec<IVec3> {
+    let (boxes, _) = block_boxes(parts, bounds, xf, band_width);
+    let mut coords: Vec<IVec3> = boxes
+        .into_iter()
+        .flat_map(|(lo, hi)| {
+            (lo.x..=hi.x).flat_map(move |x| {
+                (lo.y..=hi.y).flat_map(move |y| (lo.z..=hi.z).map(move |z| IVec3::new(x, y, z)))
+            })
+        })
+        .collect();
+    coords.par_sort_unstable_by_key(|c| c.to_array());
+    coords.dedup();
+    coords
+}
+
+/// How many blocks [`blocks_around`] lists (at most; before removing repeats), known
+/// before listing them: in f64, as a bounding box can hold more than an i64 counts.
+pub(super) fn blocks_listed(target: &dyn Target, xf: IndexToWorld, band_width: f32) -> f64 {
+    block_boxes(&target.parts(), target.bounds(), xf, band_width).1
+}
+
+/// The index boxes of blocks [`blocks_around`] lists, with their total count.
+fn block_boxes(
+    parts: &[Aabb],
+    bounds: Aabb,
+    xf: IndexToWorld,
+    band_width: f32,
+) -> (Vec<(IVec3, IVec3)>, f64) {
     let dx = xf.dx;
     let side = dx * BLOCK_DIM as f32;
     let range = |b: Aabb| {
@@ -53,7 +80,6 @@ pub(super) fn blocks_around(
         let hi = ((b.max - xf.origin) / side).ceil().as_ivec3() + IVec3::ONE;
         (lo, hi)
     };
-    // In f64: a bounding box can hold more blocks than an i64 counts.
     let count = |(lo, hi): (IVec3, IVec3)| {
         let n = (hi.as_dvec3() - lo.as_dvec3() + 1.0).max(glam::DVec3::ZERO);
         n.x * n.y * n.z
@@ -61,21 +87,11 @@ pub(super) fn blocks_around(
     let boxes: Vec<(IVec3, IVec3)> = parts.iter().map(|&b| range(b)).collect();
     let whole = range(bounds);
     let listed: f64 = boxes.iter().map(|&r| count(r)).sum();
-    let mut coords: Vec<IVec3> = if listed >= count(whole) {
-        vec![whole]
+    if listed >= count(whole) {
+        (vec![whole], count(whole))
     } else {
-        boxes
+        (boxes, listed)
     }
-    .into_iter()
-    .flat_map(|(lo, hi)| {
-        (lo.x..=hi.x).flat_map(move |x| {
-            (lo.y..=hi.y).flat_map(move |y| (lo.z..=hi.z).map(move |z| IVec3::new(x, y, z)))
-        })
-    })
-    .collect();
-    coords.par_sort_unstable_by_key(|c| c.to_array());
-    coords.dedup();
-    coords
 }
 
 /// The target's distance at the centre of block `c`.

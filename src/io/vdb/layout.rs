@@ -56,6 +56,10 @@ pub struct Layout {
     pub has_offsets: bool,
     /// `(name, type)` of each grid descriptor, when the file records grid offsets.
     pub grids: Vec<(String, String)>,
+    /// Each grid's size in memory as its writer recorded it (OpenVDB's `file_mem_bytes`
+    /// statistic, written by default), beside `grids`: what reading it will take,
+    /// known before it is read.
+    pub memory: Vec<Option<u64>>,
 }
 
 /// OpenVDB's separator in a file's unique grid names: the second grid named `a` is
@@ -104,6 +108,22 @@ impl Layout {
 }
 
 impl Layout {
+    /// The most memory reading a grid of `name` ([`Layout::find`]), or any grid whose
+    /// type starts with `kind` when `None`, will take, as the writer recorded it.
+    pub fn recorded_memory(&self, name: Option<&str>, kind: &str) -> Option<u64> {
+        let at = |g: &(String, String)| self.grids.iter().position(|x| std::ptr::eq(x, g));
+        let chosen: Vec<usize> = match name {
+            Some(n) => self.find(n).and_then(at).into_iter().collect(),
+            None => (0..self.grids.len())
+                .filter(|&i| self.grids[i].1.starts_with(kind))
+                .collect(),
+        };
+        chosen
+            .into_iter()
+            .filter_map(|i| self.memory.get(i).copied().flatten())
+            .max()
+    }
+
     /// The grid to read, by its unique name in the file as OpenVDB's lookup takes it
     /// (`a[1]`: given as stored, `a\x1e1`, it finds the first `a`): `name`
     /// ([`Layout::find`]), or the first float grid in file order (OpenVDB's own lookup
@@ -263,8 +283,10 @@ pub fn check<R: Read + Seek>(reader: R, len: u64) -> Result<Layout, LayoutError>
             version,
             has_offsets,
             grids,
+            memory: Vec::new(),
         });
     }
+    let mut memory = Vec::with_capacity(grid_count as usize);
     for _ in 0..grid_count {
         let name = w.string("grid name")?;
         let kind = w.string("grid type")?;
@@ -282,14 +304,41 @@ pub fn check<R: Read + Seek>(reader: R, len: u64) -> Result<Layout, LayoutError>
         if end_pos as u64 > len {
             return Err(w.truncated(&what, end_pos as u64));
         }
-        w.seek(end_pos as u64)?;
+        let next = w.pos;
+        // A statistic, not the grid: metadata OpenVDB would not read fails when it reads.
+        memory.push(w.recorded_memory(grid_pos as u64, version).unwrap_or(None));
+        w.seek(next)?;
         grids.push((name, kind));
     }
     Ok(Layout {
         version,
         has_offsets,
         grids,
+        memory,
     })
+}
+
+impl<R: Read + Seek> Walker<R> {
+    /// The `file_mem_bytes` entry of the grid's metadata at `grid_pos`, which follows
+    /// the grid's compression flags (`Archive::readGrid`).
+    fn recorded_memory(&mut self, grid_pos: u64, version: u32) -> Result<Option<u64>, LayoutError> {
+        self.seek(grid_pos)?;
+        if version >= VERSION_PER_GRID_COMPRESSION {
+            self.u32("grid compression")?;
+        }
+        let entries = self.count("grid metadata count")?;
+        for _ in 0..entries {
+            let name = self.string("metadata name")?;
+            let kind = self.string("metadata type")?;
+            let size = self.u32("metadata size")?;
+            if name == "file_mem_bytes" && kind == "int64" && size == 8 {
+                let bytes = self.i64("file_mem_bytes")?;
+                return Ok(u64::try_from(bytes).ok());
+            }
+            self.skip(u64::from(size), "metadata value")?;
+        }
+        Ok(None)
+    }
 }
 
 #[cfg(test)]
@@ -339,6 +388,8 @@ mod tests {
             layout.grids,
             vec![("surface".to_string(), "Tree_float_5_4_3".to_string())]
         );
+        // Its payload is no grid's metadata: the size is unknown, the file still whole.
+        assert_eq!(layout.memory, vec![None]);
     }
 
     #[test]
