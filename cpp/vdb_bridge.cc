@@ -7,6 +7,8 @@
 #include <openvdb/tools/LevelSetSphere.h>
 #include <openvdb/tools/Prune.h>
 
+#include <dlfcn.h>
+
 #include <cstring>
 #include <mutex>
 #include <sstream>
@@ -22,9 +24,42 @@ using LeafT = FloatTree::LeafNodeType;
 constexpr size_t kLeafVoxels = LeafT::SIZE;           // 512
 constexpr size_t kMaskWords = LeafT::NodeMaskType::WORD_COUNT;  // 8
 
+// OpenVDB's own log: Debian builds OpenVDB with log4cplus, whose appender writes its
+// WARN lines to stdout with colour codes, into `info`'s listing and every pipe. They are
+// sent to stderr instead, plain. log4cplus's headers do not come with OpenVDB's, so its C
+// API is looked up in the process, where OpenVDB loaded it: nothing is linked that a
+// build without log4cplus would lack.
+static const char *const kLogToStderr =
+    "log4cplus.logger.openvdb=WARN, STDERR\n"
+    "log4cplus.additivity.openvdb=false\n"
+    "log4cplus.appender.STDERR=log4cplus::ConsoleAppender\n"
+    "log4cplus.appender.STDERR.logToStdErr=true\n"
+    "log4cplus.appender.STDERR.layout=log4cplus::PatternLayout\n"
+    "log4cplus.appender.STDERR.layout.ConversionPattern=OpenVDB %p: %m%n\n";
+
+template <typename F>
+static F log4cplus_function(const char *name) {
+  return reinterpret_cast<F>(dlsym(RTLD_DEFAULT, name));
+}
+
 void ensure_initialized() {
   static std::once_flag once;
-  std::call_once(once, [] { openvdb::initialize(); });
+  std::call_once(once, [] {
+    openvdb::initialize();
+    if (auto configure = log4cplus_function<int (*)(const char *)>("log4cplus_str_configure")) {
+      configure(kLogToStderr);
+    }
+  });
+}
+
+bool log_openvdb_warning(rust::Str message) {
+  ensure_initialized();
+  // log4cplus_logger_log_str(logger, level, message); 30000 is WARN_LOG_LEVEL.
+  auto log = log4cplus_function<int (*)(const char *, int, const char *)>(
+      "log4cplus_logger_log_str");
+  if (!log) return false;
+  log("openvdb", 30000, std::string(message).c_str());
+  return true;
 }
 
 std::unique_ptr<FloatGrid> wrap(openvdb::FloatGrid::Ptr grid) {

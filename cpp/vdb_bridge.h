@@ -74,6 +74,7 @@ class GridWriter {
 };
 
 rust::Vec<GridSummary> list_grids(rust::Str path);
+bool log_openvdb_warning(rust::Str message);
 std::unique_ptr<FloatGrid> read_float_grid(rust::Str path, rust::Str name);
 std::unique_ptr<FloatGrid> new_float_grid(const GridHeader &header,
                                           rust::Slice<const int32_t> origins,

@@ -227,3 +227,40 @@ fn a_grid_openvdb_cannot_decode_is_listed_and_hides_nothing() {
         .unwrap();
     common::assert_ok(&result);
 }
+
+/// OpenVDB's own warnings (Debian builds it with log4cplus, which writes them to stdout
+/// in colour) go to stderr, plain: `info`'s listing and pipes stay clean. Run in a child
+/// process (this test binary again) whose output is read.
+#[test]
+fn openvdb_warnings_go_to_stderr_without_colour() {
+    const CHILD: &str = "ACTIVESKIN_TEST_LOG_CHILD";
+    if std::env::var_os(CHILD).is_some() {
+        if !activeskin::vdb::log_openvdb_warning("a test warning") {
+            println!("no log4cplus");
+        }
+        return;
+    }
+    let out = std::process::Command::new(std::env::current_exe().unwrap())
+        .args([
+            "--exact",
+            "openvdb_warnings_go_to_stderr_without_colour",
+            "--nocapture",
+        ])
+        .env(CHILD, "1")
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    if stdout.contains("no log4cplus") {
+        return;
+    }
+    assert!(!stdout.contains("a test warning"), "stdout: {stdout}");
+    assert!(
+        stderr.contains("OpenVDB WARN: a test warning"),
+        "stderr: {stderr}"
+    );
+    assert!(!stderr.contains('\x1b'), "stderr: {stderr:?}");
+}

@@ -541,6 +541,13 @@ fn check_vdb_file(path: &Path) -> Result<layout::Layout, VdbError> {
     layout::check(std::io::BufReader::new(file), meta.len()).map_err(|m| VdbError::file(path, m))
 }
 
+/// Logs `message` as OpenVDB logs its warnings, for a test of where they go; false when
+/// this OpenVDB logs without log4cplus (to stderr already).
+#[doc(hidden)]
+pub fn log_openvdb_warning(message: &str) -> bool {
+    ffi::bridge::log_openvdb_warning(message)
+}
+
 /// The size in memory of grid `name` (of the first float grid when `None`) as the file's
 /// writer recorded it (OpenVDB's `file_mem_bytes`), when it did.
 pub fn recorded_memory(path: &Path, name: Option<&str>) -> Result<Option<u64>, VdbError> {

@@ -142,6 +142,9 @@ pub(crate) mod bridge {
         type GridWriter;
 
         fn list_grids(path: &str) -> Result<Vec<GridSummary>>;
+        /// Logs `message` as a warning through OpenVDB's logger (false: OpenVDB has no
+        /// log4cplus in this build).
+        fn log_openvdb_warning(message: &str) -> bool;
         /// `name` empty: the first grid whose value type is `float`.
         fn read_float_grid(path: &str, name: &str) -> Result<UniquePtr<FloatGrid>>;
         fn new_float_grid(

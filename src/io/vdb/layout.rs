@@ -304,10 +304,10 @@ pub fn check<R: Read + Seek>(reader: R, len: u64) -> Result<Layout, LayoutError>
         if end_pos as u64 > len {
             return Err(w.truncated(&what, end_pos as u64));
         }
-        let next = w.pos;
         // A statistic, not the grid: metadata OpenVDB would not read fails when it reads.
         memory.push(w.recorded_memory(grid_pos as u64, version).unwrap_or(None));
-        w.seek(next)?;
+        // The next descriptor follows the grid.
+        w.seek(end_pos as u64)?;
         grids.push((name, kind));
     }
     Ok(Layout {
