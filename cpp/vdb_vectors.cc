@@ -97,7 +97,9 @@ void GridWriter::add_vectors(rust::Str name, bool staggered, double voxel_size,
   grid->setName(std::string(name));
   grid->setTransform(openvdb::math::Transform::createLinearTransform(voxel_size));
   grid->setGridClass(staggered ? openvdb::GRID_STAGGERED : openvdb::GRID_UNKNOWN);
-  grid->setVectorType(staggered ? openvdb::VEC_CONTRAVARIANT_RELATIVE : openvdb::VEC_INVARIANT);
+  // Velocities, staggered or not: displacements per time, which a transform of the grid
+  // carries as it carries a displacement (what Houdini gives its `v` and `vel`).
+  grid->setVectorType(openvdb::VEC_CONTRAVARIANT_RELATIVE);
   auto accessor = grid->getAccessor();
   for (size_t i = 0; i + 2 < coords.size(); i += 3) {
     accessor.setValue(openvdb::Coord(coords[i], coords[i + 1], coords[i + 2]),

@@ -18,13 +18,15 @@ mod targets;
 use std::time::Instant;
 
 pub use inputs::{auto_warmup, InputFrames, ParticleFrame, ParticleInput, WARMUP_AUTO_FACTOR};
-pub use outputs::{OutputSpec, Outputs, Progress, Report};
+pub use outputs::{FrameVelocities, OutputSpec, Outputs, Progress, Report};
 pub use particle_run::ParticleRun;
 #[cfg(feature = "vdb")]
 pub use targets::{
     background_outside, check_transform, check_usable, not_finite, read_target, read_target_in,
     ScaleEstimate, TargetRead, TargetUnits, VelocityInput, VelocitySource, VELOCITY_NAMES,
 };
+
+use rayon::prelude::*;
 
 use crate::flow::{Flow, FlowMap, Timing};
 use crate::io::image::RenderError;
@@ -134,16 +136,18 @@ impl<'t> Before<'t> {
     }
 }
 
-/// The velocity of the settled skin's mesh ([`crate::skin::velocity`]): the material's
-/// motion the frame's input knows (its flow map, else its velocity), the skin's own
-/// against the frame before's settled level set.
+/// The velocity of the settled skin's surface ([`crate::skin::velocity`]) where `wanted`
+/// (mesh, grid) says: the material's motion the frame's input knows (its flow map, else
+/// its velocity), the skin's own against the frame before's settled level set; at the
+/// mesh's vertices, and at the active voxels of `level_set` (each at its own level,
+/// along the level set's gradient there).
 fn surface_velocities(
-    skin: &AnySkin,
+    (skin, level_set): (&AnySkin, &GridData),
     input: Option<&FrameInput>,
     before: Option<&GridData>,
     duration: f64,
-) -> Vec<glam::Vec3> {
-    let mesh = skin.mesh();
+    (mesh, grid): (bool, bool),
+) -> FrameVelocities {
     let dx = skin.params().dx;
     let motion = match input {
         Some(FrameInput {
@@ -155,15 +159,37 @@ fn surface_velocities(
         _ => Motion::Still,
     };
     let before = before.map(|b| (LevelSetTarget::new(b), b.background - dx));
-    crate::skin::velocity::surface_velocities(
-        &mesh.positions,
-        &mesh.normals,
-        None,
-        motion,
-        before.as_ref().map(|(t, reach)| (t as &dyn Target, *reach)),
-        duration as f32,
-        dx,
-    )
+    let before = before.as_ref().map(|(t, reach)| (t as &dyn Target, *reach));
+    let at = |points: &[glam::Vec3], normals: &[glam::Vec3], levels: Option<&[f32]>| {
+        crate::skin::velocity::surface_velocities(
+            points,
+            normals,
+            levels,
+            motion,
+            before,
+            duration as f32,
+            dx,
+        )
+    };
+    let mesh = mesh.then(|| at(&skin.mesh().positions, &skin.mesh().normals, None));
+    let grid = grid.then(|| {
+        let (coords, values): (Vec<[i32; 3]>, Vec<f32>) = level_set.active_voxels().unzip();
+        let surface = LevelSetTarget::new(level_set);
+        let (points, normals): (Vec<glam::Vec3>, Vec<glam::Vec3>) = coords
+            .par_iter()
+            .map(|ijk| {
+                let x = level_set.transform.index_to_world(ijk.map(f64::from));
+                let x = glam::DVec3::from(x).as_vec3();
+                (
+                    x,
+                    crate::target::gradient(&surface, x, 0.5 * dx).normalize_or_zero(),
+                )
+            })
+            .unzip();
+        let velocities = at(&points, &normals, Some(&values));
+        (coords, velocities.iter().map(|v| v.to_array()).collect())
+    });
+    FrameVelocities { mesh, grid }
 }
 
 /// Runs frames `first..=last`: frame `first` is the starting skin, each later frame
@@ -221,13 +247,14 @@ pub fn run<'t>(
     // The frame before's settled skin, where the surface's velocity is written: its
     // motion over the frame is measured against it.
     let velocities = outputs.wants_velocities();
-    let mut settled_before = restored.filter(|_| velocities);
+    let any_velocities = velocities.0 || velocities.1;
+    let mut settled_before = restored.filter(|_| any_velocities);
     for frame in start..=last {
         let started = Instant::now();
         let duration = 1.0 / fps;
         let input = if frame == first {
             // Read only for the velocity it has (the next frame reads it anyway).
-            match velocities && frame >= write_from {
+            match any_velocities && frame >= write_from {
                 true => Some(input_at(frame)?),
                 false => None,
             }
@@ -285,21 +312,19 @@ pub fn run<'t>(
                 substeps,
                 ..skin.stats_with(outputs.reports_topology())
             };
-            let surface = velocities.then(|| {
-                surface_velocities(&skin, input.as_ref(), settled_before.as_ref(), duration)
-            });
-            outputs.write_frame(
-                frame,
+            let surface = surface_velocities(
                 (&skin, &level_set),
-                surface.as_deref(),
-                &stats,
-                started,
-            )?;
+                input.as_ref(),
+                settled_before.as_ref(),
+                duration,
+                velocities,
+            );
+            outputs.write_frame(frame, (&skin, &level_set), &surface, &stats, started)?;
         }
         if let Some(input) = input {
             previous = Some(Before::of(input));
         }
-        if velocities {
+        if any_velocities {
             settled_before = Some(level_set);
         }
     }

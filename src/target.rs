@@ -19,6 +19,12 @@ pub use particles::{
 pub use shapes::{Blobs, BoxShape, Skeleton, Sphere, Torus, Union};
 pub use vdb::{FogTarget, LevelSetTarget};
 
+/// The gradient of `target`'s distance at `p`, by central differences of step `h`.
+pub fn gradient(target: &dyn Target, p: Vec3, h: f32) -> Vec3 {
+    let d = |e: Vec3| target.distance(p + e * h) - target.distance(p - e * h);
+    Vec3::new(d(Vec3::X), d(Vec3::Y), d(Vec3::Z)) / (2.0 * h)
+}
+
 /// A target surface. `distance` is signed, negative inside, in world units: exact for
 /// level sets and analytic shapes; for density fields, (iso − G)/|∇G|, the first-order
 /// distance to the iso-surface, so that α is a rate (1/s) whatever the target.

@@ -99,7 +99,16 @@ pub fn compare(grid: &Grid) -> Result<Report, VdbError> {
             grid.name()
         )));
     }
-    let dx = grid.to_data()?.transform.voxel_size();
+    let data = grid.to_data()?;
+    // OpenVDB's tools take such tiles as liquid out to the tree's edge: their meshes and
+    // measures would compare a box of up to 4096³ voxels (a gigabyte, seconds) to ours.
+    if data.background > 0.0 && data.tiles_within_leaves().is_some() {
+        return Err(VdbError::Grid(format!(
+            "grid '{}': inside tiles reach past its active voxels (a band left open, then flood-filled): not a closed level set, so OpenVDB's tools cannot be compared on it (`activeskin mesh` closes it where its voxels end)",
+            grid.name()
+        )));
+    }
+    let dx = data.transform.voxel_size();
     let ours = our_mesh(grid)?;
     let theirs = openvdb_mesh(grid)?;
     let measures = grid.measure_level_set()?;

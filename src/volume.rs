@@ -187,6 +187,12 @@ impl GridData {
         Some(kept)
     }
 
+    /// The index coordinates and value of each active voxel of the leaves (not tiles).
+    pub fn active_voxels(&self) -> impl Iterator<Item = ([i32; 3], f32)> + '_ {
+        active_in_leaves(&self.leaf_origins, &self.leaf_masks)
+            .map(|(at, ijk)| (ijk, self.leaf_values[at]))
+    }
+
     pub fn leaf_values(&self, leaf: usize) -> &[f32] {
         &self.leaf_values[leaf * LEAF_VOXELS..(leaf + 1) * LEAF_VOXELS]
     }
@@ -235,6 +241,36 @@ pub struct VectorGrid {
     pub leaf_masks: Vec<[u64; MASK_WORDS]>,
     /// Active constant regions above leaf level.
     pub tiles: Vec<VectorTile>,
+}
+
+impl VectorGrid {
+    /// The index coordinates and value of each active voxel of the leaves (not tiles).
+    pub fn active_voxels(&self) -> impl Iterator<Item = ([i32; 3], [f32; 3])> + '_ {
+        active_in_leaves(&self.leaf_origins, &self.leaf_masks)
+            .map(|(at, ijk)| (ijk, self.leaf_values[at]))
+    }
+}
+
+/// Each active voxel of leaves at `origins` with masks `masks`: its index among the
+/// leaves' values (`LEAF_VOXELS` a leaf) and its index coordinates, in OpenVDB's order
+/// within a leaf (offset = x·64 + y·8 + z, local coordinates).
+fn active_in_leaves<'a>(
+    origins: &'a [[i32; 3]],
+    masks: &'a [[u64; MASK_WORDS]],
+) -> impl Iterator<Item = (usize, [i32; 3])> + 'a {
+    origins
+        .iter()
+        .zip(masks)
+        .enumerate()
+        .flat_map(|(leaf, (origin, mask))| {
+            (0..LEAF_VOXELS)
+                .filter(|&n| mask[n >> 6] >> (n & 63) & 1 == 1)
+                .map(move |n| {
+                    let local = [n >> 6, (n >> 3) & 7, n & 7].map(|c| c as i32);
+                    let ijk = std::array::from_fn(|c| origin[c] + local[c]);
+                    (leaf * LEAF_VOXELS + n, ijk)
+                })
+        })
 }
 
 /// An active constant region of a vector grid: `dim`³ voxels from `origin`.

@@ -156,10 +156,11 @@ pub struct OutputArgs {
     /// Continue from the last skin VDB already written by --out.
     #[arg(long)]
     pub resume: bool,
-    /// The surface's velocity (world units per second) on each vertex of PLY meshes
-    /// (`vx vy vz`), for motion blur: the material's motion (the particles', the
-    /// velocity grid's) and the skin's own across it; `off` leaves it out.
-    #[arg(long, value_name = "on|off", default_value = "on", value_parser = clap::builder::BoolishValueParser::new())]
+    /// The surface's velocity (world units per second), for motion blur: on each vertex
+    /// of PLY meshes (`vx vy vz`) and as the vector grid `v` on the level set's voxels in
+    /// --out VDBs. The material's motion (the particles', the velocity grid's) and the
+    /// skin's own across it; `off` leaves it out.
+    #[arg(long, value_name = "on|off", default_value = "on", action = clap::ArgAction::Set, value_parser = clap::builder::BoolishValueParser::new())]
     pub velocities: bool,
     /// No progress output.
     #[arg(long, short)]

@@ -6,7 +6,6 @@ use glam::{DMat4, DVec3, IVec3, Vec3};
 use hashbrown::{HashMap, HashSet};
 
 use super::Flow;
-use crate::grid::offset_coords;
 use crate::volume::{VectorGrid, LEAF_VOXELS};
 
 /// Layers of voxels added around the active ones, each taking the mean of its active face
@@ -72,15 +71,8 @@ impl GridFlow {
     /// a rigid motion), and so are velocities that are NaN or infinite.
     pub fn new(grid: &VectorGrid, scale: f32, duration: f64) -> Result<Self, GridFlowError> {
         let mut voxels = HashMap::new();
-        for (leaf, origin) in grid.leaf_origins.iter().enumerate() {
-            let origin = IVec3::from_array(*origin);
-            let values = &grid.leaf_values[leaf * LEAF_VOXELS..(leaf + 1) * LEAF_VOXELS];
-            let mask = &grid.leaf_masks[leaf];
-            for (offset, v) in values.iter().enumerate() {
-                if mask[offset >> 6] >> (offset & 63) & 1 == 1 {
-                    voxels.insert(origin + offset_coords(offset), Vec3::from(*v) * scale);
-                }
-            }
+        for (ijk, v) in grid.active_voxels() {
+            voxels.insert(IVec3::from_array(ijk), Vec3::from(v) * scale);
         }
         for tile in &grid.tiles {
             if tile.dim > 64 {
@@ -265,7 +257,7 @@ mod tests {
                     grid.leaf_origins.push(origin.to_array());
                     grid.leaf_masks.push([u64::MAX; MASK_WORDS]);
                     for offset in 0..LEAF_VOXELS {
-                        let v = (origin + offset_coords(offset)).as_vec3();
+                        let v = (origin + crate::grid::offset_coords(offset)).as_vec3();
                         let value: [f32; 3] = std::array::from_fn(|c| {
                             let mut p = v;
                             if staggered {

@@ -72,10 +72,22 @@ pub struct OutputSpec {
     pub stats_fields: serde_json::Map<String, serde_json::Value>,
     /// The files the run reads: no output may overwrite one of them.
     pub reads: Vec<FramePattern>,
-    /// The surface's velocity per vertex, for motion blur, in the outputs that hold one
-    /// (PLY meshes).
+    /// The surface's velocity, for motion blur, in the outputs that hold one: per vertex
+    /// in PLY meshes, as the vector grid `v` beside the level set in `--out` VDBs.
     pub velocities: bool,
 }
+
+/// The surface's velocity over a frame (world units per second) as its outputs write it.
+#[derive(Default)]
+pub struct FrameVelocities {
+    /// At each vertex of the skin's mesh.
+    pub mesh: Option<Vec<glam::Vec3>>,
+    /// At each active voxel of the settled level set.
+    pub grid: Option<VoxelVelocities>,
+}
+
+/// Index coordinates of voxels and the velocity at each.
+pub type VoxelVelocities = (Vec<[i32; 3]>, Vec<[f32; 3]>);
 
 /// Writes each frame's outputs and reports progress.
 pub struct Outputs {
@@ -177,14 +189,17 @@ impl Outputs {
         self.resume
     }
 
-    /// Whether a frame's surface velocities are written: asked for, and an output holds
-    /// them.
-    pub fn wants_velocities(&self) -> bool {
-        self.velocities
-            && self
-                .mesh
-                .as_ref()
-                .is_some_and(|m| crate::io::mesh::holds_values(&m.path(0)))
+    /// Where a frame's surface velocities are written, as (mesh, grid): asked for, and
+    /// the mesh's format holds them (PLY), or skin VDBs are written.
+    pub fn wants_velocities(&self) -> (bool, bool) {
+        let mesh = self
+            .mesh
+            .as_ref()
+            .is_some_and(|m| crate::io::mesh::holds_values(&m.path(0)));
+        (
+            self.velocities && mesh,
+            self.velocities && self.out.is_some(),
+        )
     }
 
     /// The skin VDB of a frame, if --out was given and the file exists.
@@ -194,18 +209,20 @@ impl Outputs {
     }
 
     /// Writes one frame: `level_set` is the skin's settled state
-    /// ([`AnySkin::settle`]), `stats` measured on it, `velocities` its mesh's
+    /// ([`AnySkin::settle`]), `stats` measured on it, `velocities` its surface's
     /// ([`Outputs::wants_velocities`]).
     pub fn write_frame(
         &mut self,
         frame: i64,
         (skin, level_set): (&AnySkin, &GridData),
-        velocities: Option<&[glam::Vec3]>,
+        velocities: &FrameVelocities,
         stats: &StepStats,
         started: Instant,
     ) -> Result<(), FrameError> {
         if let Some(pattern) = &self.mesh {
-            let values = crate::io::mesh::VertexValues { velocities };
+            let values = crate::io::mesh::VertexValues {
+                velocities: velocities.mesh.as_deref(),
+            };
             crate::io::mesh::write_with_values(skin.mesh(), values, &pattern.path(frame))?;
         }
         if let Some((pattern, size, camera)) = &mut self.render {
@@ -253,9 +270,24 @@ impl Outputs {
         if let Some(pattern) = &self.out {
             let grid = Grid::from_data(level_set)?;
             let meta = vdb::frame_metadata(frame);
-            vdb::write_grids(
+            let vectors: Vec<vdb::VectorWrite> = velocities
+                .grid
+                .iter()
+                .map(|(coords, values)| vdb::VectorWrite {
+                    // Houdini's name for a velocity on geometry, which VDB Sample
+                    // copies onto a mesh's points for motion blur.
+                    name: "v",
+                    staggered: false,
+                    voxel_size: level_set.transform.voxel_size(),
+                    coords,
+                    values,
+                    half_float: false,
+                })
+                .collect();
+            vdb::write_grids_and_vectors(
                 &pattern.path(frame),
                 &[(&grid, WriteOptions::default())],
+                &vectors,
                 &meta,
             )?;
         }

@@ -109,11 +109,7 @@ pub fn fit(
 /// The normal of `target` at `p` by central differences of step `h`; `None` where its
 /// gradient is not a distance's (a medial axis, the band's edge).
 fn unit_gradient(target: &dyn Target, p: Vec3, h: f32) -> Option<Vec3> {
-    let grad = Vec3::new(
-        target.distance(p + Vec3::X * h) - target.distance(p - Vec3::X * h),
-        target.distance(p + Vec3::Y * h) - target.distance(p - Vec3::Y * h),
-        target.distance(p + Vec3::Z * h) - target.distance(p - Vec3::Z * h),
-    ) / (2.0 * h);
+    let grad = crate::target::gradient(target, p, h);
     let length = grad.length();
     (0.5..=1.5).contains(&length).then(|| grad / length)
 }

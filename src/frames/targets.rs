@@ -505,18 +505,11 @@ fn fit_pair(
 
 /// World positions of a level set's active voxels with |φ| < `within`.
 fn band_points(data: &GridData, within: f32) -> Vec<Vec3> {
-    let mut points = Vec::new();
-    for (leaf, origin) in data.leaf_origins.iter().enumerate() {
-        let mask = &data.leaf_masks[leaf];
-        for (offset, &phi) in data.leaf_values(leaf).iter().enumerate() {
-            if mask[offset >> 6] >> (offset & 63) & 1 == 1 && phi.abs() < within {
-                let l = crate::grid::offset_coords(offset);
-                let ijk = [origin[0] + l.x, origin[1] + l.y, origin[2] + l.z].map(f64::from);
-                points.push(Vec3::from(
-                    data.transform.index_to_world(ijk).map(|c| c as f32),
-                ));
-            }
-        }
-    }
-    points
+    data.active_voxels()
+        .filter(|(_, phi)| phi.abs() < within)
+        .map(|(ijk, _)| {
+            let world = data.transform.index_to_world(ijk.map(f64::from));
+            Vec3::from(world.map(|c| c as f32))
+        })
+        .collect()
 }

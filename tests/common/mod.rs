@@ -39,14 +39,49 @@ pub fn activeskin(args: &[&str]) -> Output {
 /// [`activeskin`] within 60 s and a 4 GB address space, as the hostile inputs of issue 31
 /// were tried.
 pub fn activeskin_bounded<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
-    Command::new("sh")
+    activeskin_measured(args).0
+}
+
+/// [`activeskin_bounded`], with the run's peak resident memory in bytes.
+// The child is reaped by wait4 (for its resource usage), not by `Child::wait`.
+#[allow(clippy::zombie_processes)]
+pub fn activeskin_measured<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> (Output, u64) {
+    use std::io::Read;
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::Stdio;
+    let mut child = Command::new("sh")
         .arg("-c")
         .arg("ulimit -v 4000000 && exec timeout 60 \"$@\"")
         .arg("sh")
         .arg(env!("CARGO_BIN_EXE_activeskin"))
         .args(args)
-        .output()
-        .expect("run activeskin")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run activeskin");
+    let drain = |mut from: Box<dyn Read + Send>| {
+        std::thread::spawn(move || {
+            let mut bytes = Vec::new();
+            let _ = from.read_to_end(&mut bytes);
+            bytes
+        })
+    };
+    let stdout = drain(Box::new(child.stdout.take().unwrap()));
+    let stderr = drain(Box::new(child.stderr.take().unwrap()));
+    let mut status = 0;
+    // SAFETY: an all-zero rusage is valid; wait4 reaps our own child, not waited for
+    // before (and `child` is not waited for after). Its usage includes the descendants
+    // it waited for: `timeout` waits for activeskin.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    let reaped = unsafe { libc::wait4(child.id() as i32, &mut status, 0, &mut usage) };
+    assert_eq!(reaped, child.id() as i32, "wait4");
+    let out = Output {
+        status: std::process::ExitStatus::from_raw(status),
+        stdout: stdout.join().unwrap(),
+        stderr: stderr.join().unwrap(),
+    };
+    // ru_maxrss is in kilobytes.
+    (out, usage.ru_maxrss as u64 * 1024)
 }
 
 pub fn stderr(out: &Output) -> String {
