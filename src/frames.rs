@@ -17,8 +17,11 @@ mod targets;
 
 use std::time::Instant;
 
-pub use inputs::{auto_warmup, InputFrames, ParticleFrame, ParticleInput, WARMUP_AUTO_FACTOR};
-pub use outputs::{FrameVelocities, OutputSpec, Outputs, Progress, Report};
+pub use inputs::{
+    auto_warmup, AttributeChoice, AttributeSource, InputFrames, ParticleFrame, ParticleInput,
+    WARMUP_AUTO_FACTOR,
+};
+pub use outputs::{OutputSpec, Outputs, Progress, Report, SurfaceValues};
 pub use particle_run::ParticleRun;
 #[cfg(feature = "vdb")]
 pub use targets::{
@@ -105,6 +108,8 @@ pub struct FrameInput<'t> {
     /// incompressible liquid): the skin is held to it once attracted, as the frame settles
     /// ([`AnySkin::settle_holding`]).
     pub volume: Option<f64>,
+    /// Particle attributes to carry onto the surface's vertices (`--attribute`).
+    pub attributes: Option<AttributeSource>,
 }
 
 impl<'t> FrameInput<'t> {
@@ -116,6 +121,7 @@ impl<'t> FrameInput<'t> {
             carried: None,
             seed: false,
             volume: None,
+            attributes: None,
         }
     }
 }
@@ -136,18 +142,19 @@ impl<'t> Before<'t> {
     }
 }
 
-/// The velocity of the settled skin's surface ([`crate::skin::velocity`]) where `wanted`
-/// (mesh, grid) says: the material's motion the frame's input knows (its flow map, else
-/// its velocity), the skin's own against the frame before's settled level set; at the
-/// mesh's vertices, and at the active voxels of `level_set` (each at its own level,
-/// along the level set's gradient there).
-fn surface_velocities(
+/// What the outputs write beside the settled skin's surface. Its velocity
+/// ([`crate::skin::velocity`]) where `(mesh, grid)` say: the material's motion the
+/// frame's input knows (its flow map, else its velocity), the skin's own against the
+/// frame before's settled level set; at the mesh's vertices, and at the active voxels of
+/// `level_set` (each at its own level, along the level set's gradient there). The
+/// input's particle attributes at the mesh's vertices, where `wants_attributes`.
+fn surface_values(
     (skin, level_set): (&AnySkin, &GridData),
     input: Option<&FrameInput>,
     before: Option<&GridData>,
     duration: f64,
-    (mesh, grid): (bool, bool),
-) -> FrameVelocities {
+    ((mesh, grid), wants_attributes): ((bool, bool), bool),
+) -> SurfaceValues {
     let dx = skin.params().dx;
     let motion = match input {
         Some(FrameInput {
@@ -189,7 +196,16 @@ fn surface_velocities(
         let velocities = at(&points, &normals, Some(&values));
         (coords, velocities.iter().map(|v| v.to_array()).collect())
     });
-    FrameVelocities { mesh, grid }
+    // Particle attributes where the mesh holds them.
+    let attributes = match (wants_attributes, input.and_then(|i| i.attributes.as_ref())) {
+        (true, Some(source)) => source.at(&skin.mesh().positions),
+        _ => Vec::new(),
+    };
+    SurfaceValues {
+        mesh,
+        grid,
+        attributes,
+    }
 }
 
 /// Runs frames `first..=last`: frame `first` is the starting skin, each later frame
@@ -248,13 +264,15 @@ pub fn run<'t>(
     // motion over the frame is measured against it.
     let velocities = outputs.wants_velocities();
     let any_velocities = velocities.0 || velocities.1;
+    let attributes = outputs.mesh_holds_values();
     let mut settled_before = restored.filter(|_| any_velocities);
     for frame in start..=last {
         let started = Instant::now();
         let duration = 1.0 / fps;
         let input = if frame == first {
-            // Read only for the velocity it has (the next frame reads it anyway).
-            match any_velocities && frame >= write_from {
+            // Read only for the velocity and attributes it has (the next frame reads it
+            // anyway).
+            match (any_velocities || attributes) && frame >= write_from {
                 true => Some(input_at(frame)?),
                 false => None,
             }
@@ -312,12 +330,12 @@ pub fn run<'t>(
                 substeps,
                 ..skin.stats_with(outputs.reports_topology())
             };
-            let surface = surface_velocities(
+            let surface = surface_values(
                 (&skin, &level_set),
                 input.as_ref(),
                 settled_before.as_ref(),
                 duration,
-                velocities,
+                (velocities, attributes),
             );
             outputs.write_frame(frame, (&skin, &level_set), &surface, &stats, started)?;
         }

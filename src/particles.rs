@@ -18,6 +18,19 @@ pub struct Particles {
     /// Per-particle identifier (PLY `id`, as SPlisHSPlasH and partio write it), when the
     /// file has one: the same particle keeps it from frame to frame.
     pub ids: Option<Vec<i64>>,
+    /// Every other per-particle quantity the file holds (temperature, age, density, a
+    /// foam flag, vorticity), under its own name, for `particles --attribute`.
+    pub attributes: Vec<Attribute>,
+}
+
+/// A per-particle quantity a simulator wrote, carried onto the surface by name.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Attribute {
+    pub name: String,
+    /// 1 for a scalar, 3 for a vector, as the file holds it.
+    pub components: usize,
+    /// `components` values a particle, in the particles' order.
+    pub values: Vec<f32>,
 }
 
 impl Particles {
@@ -50,6 +63,15 @@ impl Particles {
         }
         if let Some(ids) = &mut self.ids {
             filter(ids, &keep);
+        }
+        for a in &mut self.attributes {
+            let mut kept = Vec::with_capacity(a.values.len());
+            for (row, &k) in a.values.chunks_exact(a.components).zip(&keep) {
+                if k {
+                    kept.extend_from_slice(row);
+                }
+            }
+            a.values = kept;
         }
         before - self.positions.len()
     }

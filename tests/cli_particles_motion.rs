@@ -121,6 +121,8 @@ fn a_thrown_ball_keeps_its_volume_and_no_lag_in_few_sub_steps() {
         density_out: None,
         dx: R,
         velocity_scale: None,
+
+        attributes: Default::default(),
     };
     let first_volume = lines[0]["volume"].as_f64().unwrap();
     let mut report = Vec::new();

@@ -36,6 +36,8 @@ fn run_library(into: &Path) {
         density_out: None,
         dx,
         velocity_scale: Some(1.0),
+
+        attributes: Default::default(),
     };
     let spec = OutputSpec {
         out: None,

@@ -135,6 +135,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
                 carried: None,
                 seed: false,
                 volume: None,
+                attributes: None,
             })
         },
     )?;
@@ -175,6 +176,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
                 carried: None,
                 seed: true,
                 volume: None,
+                attributes: None,
             })
         },
     )?;

@@ -2,7 +2,7 @@
 //! particle sequence (paper §6.1), through the same frame loop and outputs as `skin`.
 
 use activeskin::flow::Timing;
-use activeskin::frames::{OutputSpec, Outputs, ParticleInput, ParticleRun};
+use activeskin::frames::{AttributeChoice, OutputSpec, Outputs, ParticleInput, ParticleRun};
 use activeskin::target::{fluid_iso, DEFAULT_SMOOTHING_LENGTH};
 use anyhow::Context;
 
@@ -60,6 +60,12 @@ pub struct ParticlesArgs {
     /// (per radius cubed with radii of their own).
     #[arg(long)]
     free_volume: bool,
+    /// A particle attribute (scalar or vector, by its name in the files: temperature,
+    /// age, density, vorticity) to carry onto the mesh's vertices with the density's own
+    /// kernel weights, written as PLY vertex properties (a vector as NAME_x NAME_y
+    /// NAME_z); repeat for more, `all` for every one the files hold. Needs a PLY --mesh.
+    #[arg(long = "attribute", value_name = "NAME|all")]
+    attributes: Vec<String>,
     #[command(flatten)]
     physics: PhysicsArgs,
     #[command(flatten)]
@@ -87,6 +93,11 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
         density_out: None,
         dx: args.physics.voxel_size.unwrap_or(0.5 * args.radius),
         velocity_scale: (!args.no_velocity).then_some(args.velocity_scale),
+        attributes: match args.attributes.as_slice() {
+            [] => AttributeChoice::None,
+            names if names.iter().any(|n| n == "all") => AttributeChoice::All,
+            names => AttributeChoice::Named(names.to_vec()),
+        },
     };
     if let Err(why) = particles.check() {
         usage!("{why}");
@@ -110,6 +121,9 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
         ..args.outputs.spec()?
     };
     let mut outputs = Outputs::new(&spec, (write_from, input.range.1))?;
+    if particles.attributes != AttributeChoice::None && !outputs.mesh_holds_values() {
+        usage!("--attribute writes PLY vertex properties: give a --mesh pattern ending in .ply");
+    }
     let quiet = args.outputs.quiet;
     let run = ParticleRun {
         input: &input,

@@ -256,6 +256,7 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
             carried: None,
             seed: true,
             volume: None,
+            attributes: None,
         })
     };
     let first_file = input.file(range.0, args.hold_missing)?;

@@ -8,7 +8,7 @@ use glam::Vec3;
 use super::FrameError;
 use crate::grid::REACH_VOXELS;
 use crate::io::particles;
-use crate::particles::{motion::frame_velocities, Particles};
+use crate::particles::{motion::frame_velocities, Attribute, Particles};
 use crate::sequence::{FramePattern, PatternError};
 use crate::target::{Density, DensityGrid, MAX_SMOOTHING_LENGTH, VELOCITY_SUPPORT_RADII};
 #[cfg(feature = "vdb")]
@@ -135,6 +135,40 @@ pub struct ParticleInput {
     /// Multiplies the particles' velocities into world units per second; `None` ignores
     /// them.
     pub velocity_scale: Option<f32>,
+    /// The particle attributes carried onto the surface (`--attribute`).
+    pub attributes: AttributeChoice,
+}
+
+/// Which particle attributes are carried onto the surface.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub enum AttributeChoice {
+    #[default]
+    None,
+    /// These, by their names in the files.
+    Named(Vec<String>),
+    /// Every one the files hold.
+    All,
+}
+
+/// A frame's particle attributes and the density whose weights carry them onto points
+/// of the surface ([`Density::interpolate`]).
+pub struct AttributeSource {
+    density: Density,
+    attributes: Vec<Attribute>,
+}
+
+impl AttributeSource {
+    /// Each attribute at `points`, under its own name.
+    pub fn at(&self, points: &[Vec3]) -> Vec<Attribute> {
+        self.attributes
+            .iter()
+            .map(|a| Attribute {
+                name: a.name.clone(),
+                components: a.components,
+                values: self.density.interpolate(points, &a.values, a.components),
+            })
+            .collect()
+    }
 }
 
 /// One particle frame read: its density (the skin's target) and its particles, kept to
@@ -147,6 +181,8 @@ pub struct ParticleFrame {
     pub carried: bool,
     /// What the user should know about the frame: particles left out.
     pub note: Option<String>,
+    /// The attributes asked for, when some were.
+    pub attributes: Option<AttributeSource>,
 }
 
 impl ParticleInput {
@@ -225,6 +261,7 @@ impl ParticleInput {
             }
         });
         let before = before.as_deref();
+        let attributes = self.chosen_attributes(path, &mut cloud)?;
         let note = (far > 0).then(|| {
             format!(
                 "{}: {far} particle(s) more than {reach} from the origin left out (2^20 voxels of {}: farther, 32-bit coordinates do not resolve the voxels)",
@@ -283,7 +320,46 @@ impl ParticleInput {
             particles: cloud,
             carried,
             note,
+            attributes: attributes.map(|attributes| AttributeSource {
+                density,
+                attributes,
+            }),
         })
+    }
+
+    /// The attributes asked for, taken out of `cloud` (which is kept a frame to match
+    /// the next: it need not carry them); `Err` names one the file does not hold.
+    fn chosen_attributes(
+        &self,
+        path: &Path,
+        cloud: &mut Particles,
+    ) -> Result<Option<Vec<Attribute>>, FrameError> {
+        let held = std::mem::take(&mut cloud.attributes);
+        let names = match &self.attributes {
+            AttributeChoice::None => return Ok(None),
+            AttributeChoice::All => return Ok(Some(held)),
+            AttributeChoice::Named(names) => names,
+        };
+        let mut chosen = Vec::with_capacity(names.len());
+        for name in names {
+            match held.iter().find(|a| a.name == *name) {
+                Some(a) => chosen.push(a.clone()),
+                None => {
+                    let listed: Vec<&str> = held.iter().map(|a| a.name.as_str()).collect();
+                    return Err(FrameError::Data(format!(
+                        "{}: no particle attribute '{name}' ({})",
+                        path.display(),
+                        match listed.is_empty() {
+                            true =>
+                                "the file has none besides positions, radii, velocities and ids"
+                                    .to_string(),
+                            false => format!("attributes: {}", listed.join(", ")),
+                        }
+                    )));
+                }
+            }
+        }
+        Ok(Some(chosen))
     }
 
     /// The volume below which an enclosed void of the density is filled when a skin

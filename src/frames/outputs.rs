@@ -77,13 +77,16 @@ pub struct OutputSpec {
     pub velocities: bool,
 }
 
-/// The surface's velocity over a frame (world units per second) as its outputs write it.
+/// What a frame's outputs write beside the surface: its velocity over the frame (world
+/// units per second) and the particles' attributes carried onto it.
 #[derive(Default)]
-pub struct FrameVelocities {
-    /// At each vertex of the skin's mesh.
+pub struct SurfaceValues {
+    /// The velocity at each vertex of the skin's mesh.
     pub mesh: Option<Vec<glam::Vec3>>,
-    /// At each active voxel of the settled level set.
+    /// The velocity at each active voxel of the settled level set.
     pub grid: Option<VoxelVelocities>,
+    /// Particle attributes at each vertex of the mesh.
+    pub attributes: Vec<crate::particles::Attribute>,
 }
 
 /// Index coordinates of voxels and the velocity at each.
@@ -192,14 +195,18 @@ impl Outputs {
     /// Where a frame's surface velocities are written, as (mesh, grid): asked for, and
     /// the mesh's format holds them (PLY), or skin VDBs are written.
     pub fn wants_velocities(&self) -> (bool, bool) {
-        let mesh = self
-            .mesh
-            .as_ref()
-            .is_some_and(|m| crate::io::mesh::holds_values(&m.path(0)));
+        let mesh = self.mesh_holds_values();
         (
             self.velocities && mesh,
             self.velocities && self.out.is_some(),
         )
+    }
+
+    /// Whether meshes are written in a format that holds values per vertex (PLY).
+    pub fn mesh_holds_values(&self) -> bool {
+        self.mesh
+            .as_ref()
+            .is_some_and(|m| crate::io::mesh::holds_values(&m.path(0)))
     }
 
     /// The skin VDB of a frame, if --out was given and the file exists.
@@ -215,13 +222,14 @@ impl Outputs {
         &mut self,
         frame: i64,
         (skin, level_set): (&AnySkin, &GridData),
-        velocities: &FrameVelocities,
+        velocities: &SurfaceValues,
         stats: &StepStats,
         started: Instant,
     ) -> Result<(), FrameError> {
         if let Some(pattern) = &self.mesh {
             let values = crate::io::mesh::VertexValues {
                 velocities: velocities.mesh.as_deref(),
+                attributes: &velocities.attributes,
             };
             crate::io::mesh::write_with_values(skin.mesh(), values, &pattern.path(frame))?;
         }

@@ -6,7 +6,10 @@
 
 use std::sync::Arc;
 
-use super::{FrameError, FrameInput, InputFrames, Outputs, ParticleFrame, ParticleInput};
+use super::{
+    AttributeChoice, AttributeSource, FrameError, FrameInput, InputFrames, Outputs, ParticleFrame,
+    ParticleInput,
+};
 use crate::flow::{Flow, FlowMap, Timing};
 use crate::io::particles;
 use crate::particles::Particles;
@@ -43,6 +46,7 @@ impl ParticleRun<'_> {
         // A warm-up frame writes nothing, its density neither.
         let quiet = ParticleInput {
             density_out: None,
+            attributes: AttributeChoice::None,
             ..self.particles.clone()
         };
         let duration = (1.0 / self.fps) as f32;
@@ -51,8 +55,10 @@ impl ParticleRun<'_> {
         let mut noted = false;
         // Each frame is read once (its density is the skin's target and, with a
         // density output, written as a fog volume on the way); the density comes back
-        // with whether it carries the frame's motion.
-        let mut frame_at = |frame: i64| -> Result<(DensityGrid, bool, f64), FrameError> {
+        // with whether it carries the frame's motion, what the particles hold (their
+        // number) and the attributes asked for.
+        type Read = (DensityGrid, bool, f64, Option<AttributeSource>);
+        let mut frame_at = |frame: i64| -> Result<Read, FrameError> {
             let path = input.pattern.path(frame);
             let exists =
                 |f: i64| input.pattern.is_held() || input.existing.binary_search(&f).is_ok();
@@ -83,6 +89,7 @@ impl ParticleRun<'_> {
                 particles,
                 carried,
                 note: said,
+                attributes,
             } = reader.frame(&path, frame, before.as_ref(), duration)?;
             // Said once: a cache that strays does so on many frames.
             if let Some(line) = said.filter(|_| !noted) {
@@ -91,11 +98,11 @@ impl ParticleRun<'_> {
             }
             let count = held(&particles, reader);
             last = Some((frame, particles));
-            Ok((density, carried, count))
+            Ok((density, carried, count, attributes))
         };
         // The skin starts on the first frame's density, one solid: the small voids of a
         // density whose kernel barely spans the spacing would each become a skin to remove.
-        let (mut first, _, count) = frame_at(range.0)?;
+        let (mut first, _, count, first_attributes) = frame_at(range.0)?;
         first.fill_voids(self.particles.void_volume());
         let skin = AnySkin::try_new(&first, self.params)?;
         let share = match self.hold_volume {
@@ -109,7 +116,7 @@ impl ParticleRun<'_> {
         }
         .filter(|s| s.is_finite() && *s > 0.0);
         // The loop asks for the first frame once more, for its velocity.
-        let mut first = Some(Arc::new(first));
+        let mut first = Some((Arc::new(first), first_attributes));
         super::run(
             range,
             write_from,
@@ -117,11 +124,13 @@ impl ParticleRun<'_> {
             (self.fps, self.timing),
             outputs,
             |frame| {
-                let (density, carried, count) = match first.take() {
-                    Some(grid) if frame == range.0 => (grid, false, count),
+                let (density, carried, count, attributes) = match first.take() {
+                    Some((grid, attributes)) if frame == range.0 => {
+                        (grid, false, count, attributes)
+                    }
                     _ => {
-                        let (density, carried, count) = frame_at(frame)?;
-                        (Arc::new(density), carried, count)
+                        let (density, carried, count, attributes) = frame_at(frame)?;
+                        (Arc::new(density), carried, count, attributes)
                     }
                 };
                 // Particles matched from the frame before carry the skin by their own motion;
@@ -135,6 +144,7 @@ impl ParticleRun<'_> {
                     carried: map,
                     seed: true,
                     volume: share.map(|share| share * count),
+                    attributes,
                 })
             },
         )

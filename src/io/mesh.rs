@@ -58,6 +58,9 @@ pub struct VertexValues<'a> {
     /// The surface's velocity, world units per second (`vx vy vz`: Houdini reads them as
     /// `v`, Blender as the `velocity` attribute), for motion blur.
     pub velocities: Option<&'a [glam::Vec3]>,
+    /// Particle attributes carried onto the surface (`particles --attribute`): a scalar
+    /// under its own name, a vector as `NAME_x NAME_y NAME_z`.
+    pub attributes: &'a [crate::particles::Attribute],
 }
 
 /// Whether a mesh file at `path` keeps [`VertexValues`].

@@ -11,7 +11,7 @@ use glam::Vec3;
 use super::json::read_json;
 use super::ply::read_ply;
 use super::text::read_text;
-use crate::particles::Particles;
+use crate::particles::{Attribute, Particles};
 
 /// A particle file that cannot be read or written: the file, and the cause (its whole
 /// chain in the message, one line).
@@ -189,7 +189,27 @@ fn read_bgeo(bytes: &[u8]) -> Result<Particles, ParticleFault> {
         radii: column(&["pscale", "radius"], 1).map(|v| v.iter().map(|&r| r as f32).collect()),
         velocities: column(&["v", "velocity", "vel"], 3).map(vectors),
         ids,
+        attributes: attributes(
+            &points.attributes,
+            n,
+            &["pscale", "radius", "v", "velocity", "vel", "id"],
+        ),
     })
+}
+
+/// The scalar and vector arrays with a row for each of the `n` points, but those read as
+/// `known` (ASCII case ignored): the attributes `--attribute` may carry onto the surface.
+fn attributes(arrays: &[super::PointArray], n: usize, known: &[&str]) -> Vec<Attribute> {
+    arrays
+        .iter()
+        .filter(|a| !known.iter().any(|k| a.name.eq_ignore_ascii_case(k)))
+        .filter(|a| matches!(a.components, 1 | 3) && a.values.len() == n * a.components)
+        .map(|a| Attribute {
+            name: a.name.clone(),
+            components: a.components,
+            values: a.values.iter().map(|&v| v as f32).collect(),
+        })
+        .collect()
 }
 
 /// The values of the array called one of `names` with `components` components, when it has
@@ -263,6 +283,17 @@ fn read_pieces(path: &Path) -> Result<Particles, ParticleFault> {
         join(&mut all.radii, part.radii);
         join(&mut all.velocities, part.velocities);
         join(&mut all.ids, part.ids);
+        // The attributes every piece has, in the first piece's order.
+        all.attributes.retain_mut(|a| {
+            let same = |b: &&Attribute| b.name == a.name && b.components == a.components;
+            match part.attributes.iter().find(same) {
+                Some(b) => {
+                    a.values.extend_from_slice(&b.values);
+                    true
+                }
+                None => false,
+            }
+        });
     }
     Ok(all)
 }
@@ -280,6 +311,21 @@ fn from_arrays(positions: &[[f64; 3]], arrays: &[super::PointArray]) -> Particle
         radii: column(&["radius", "pscale"], 1).map(|v| v.iter().map(|&r| r as f32).collect()),
         velocities: column(&["velocity", "velocities", "vel", "v"], 3).map(vectors),
         ids: column(&["id", "idp", "ids"], 1).map(|v| v.iter().map(|&i| i as i64).collect()),
+        attributes: attributes(
+            arrays,
+            n,
+            &[
+                "radius",
+                "pscale",
+                "velocity",
+                "velocities",
+                "vel",
+                "v",
+                "id",
+                "idp",
+                "ids",
+            ],
+        ),
     }
 }
 
@@ -318,6 +364,7 @@ fn read_vdb(path: &Path) -> Result<Particles, crate::vdb::VdbError> {
                 .collect()
         }),
         ids: None,
+        attributes: Vec::new(),
     })
 }
 

@@ -10,7 +10,7 @@ use super::mesh::{write_records, write_with, MeshError, VertexValues};
 use super::particles::ParticleError;
 use super::scalar::Scalar;
 use crate::mesh::Mesh;
-use crate::particles::Particles;
+use crate::particles::{Attribute, Particles};
 
 /// A PLY element: name, count, properties (name, type).
 type Element = (String, usize, Vec<(String, String)>);
@@ -148,6 +148,15 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, PlyError> {
         (Some(a), Some(b), Some(c)) => Some((a, b, c)),
         _ => None,
     };
+    // Every other property: an attribute under its own name.
+    let known: Vec<usize> = [Some(x), Some(y), Some(z), radius, id]
+        .into_iter()
+        .flatten()
+        .chain(velocity.into_iter().flat_map(|(a, b, c)| [a, b, c]))
+        .collect();
+    let extra: Vec<usize> = (0..properties.len())
+        .filter(|k| !known.contains(k))
+        .collect();
     let data = &bytes[body.min(bytes.len())..];
     // The header's count is only a claim (found by cargo fuzz: 4.6 trillion vertices asked
     // for a 200-byte file): reserve no more rows than the bytes could hold.
@@ -156,6 +165,7 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, PlyError> {
     let mut radii = radius.map(|_| Vec::with_capacity(capacity));
     let mut velocities = velocity.map(|_| Vec::with_capacity(capacity));
     let mut ids = id.map(|_| Vec::with_capacity(capacity));
+    let mut extras: Vec<Vec<f32>> = extra.iter().map(|_| Vec::with_capacity(capacity)).collect();
     match format {
         Encoding::Ascii => {
             let mut push = |row: &[f64]| {
@@ -168,6 +178,9 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, PlyError> {
                 }
                 if let (Some(k), Some(ids)) = (id, ids.as_mut()) {
                     ids.push(row[k] as i64);
+                }
+                for (&k, values) in extra.iter().zip(extras.iter_mut()) {
+                    values.push(row[k] as f32);
                 }
             };
             let text = std::str::from_utf8(data).map_err(|_| "PLY body is not text")?;
@@ -233,6 +246,10 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, PlyError> {
                     .collect()
             });
             ids = id.map(|k| rows().map(|r| field(r, k) as i64).collect());
+            extras = extra
+                .iter()
+                .map(|&k| rows().map(|r| field(r, k) as f32).collect())
+                .collect();
         }
     }
     Ok(Particles {
@@ -240,6 +257,15 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, PlyError> {
         radii,
         velocities,
         ids,
+        attributes: extra
+            .iter()
+            .zip(extras)
+            .map(|(&k, values)| Attribute {
+                name: properties[k].0.clone(),
+                components: 1,
+                values,
+            })
+            .collect(),
     })
 }
 
@@ -253,9 +279,10 @@ pub fn write_ply(path: &Path, positions: &[Vec3]) -> Result<(), ParticleError> {
 }
 
 /// Writes a particle frame as a binary little-endian PLY, atomically: `x y z`, then what
-/// the frame has of `vx vy vz`, `radius` (floats) and `id` (`int` when every id fits in
-/// 32 bits, else `double`, exact to 2⁵³) — what [`read_ply`] reads back as it was: a
-/// converter from any format read.
+/// the frame has of `vx vy vz`, `radius` (floats), `id` (`int` when every id fits in
+/// 32 bits, else `double`, exact to 2⁵³) and its attributes (floats; a vector's as
+/// `NAME_x NAME_y NAME_z`) — what [`read_ply`] reads back: a converter from any format
+/// read.
 pub fn write_particles(path: &Path, particles: &Particles) -> Result<(), ParticleError> {
     let n = particles.positions.len();
     let wide_ids = particles
@@ -279,6 +306,9 @@ pub fn write_particles(path: &Path, particles: &Particles) -> Result<(), Particl
             "property int id\n"
         };
     }
+    for name in attribute_names(&particles.attributes) {
+        header += &format!("property float {name}\n");
+    }
     header += "end_header\n";
     let mut bytes = header.into_bytes();
     for i in 0..n {
@@ -300,39 +330,74 @@ pub fn write_particles(path: &Path, particles: &Particles) -> Result<(), Particl
                 bytes.extend_from_slice(&(ids[i] as i32).to_le_bytes());
             }
         }
+        for a in &particles.attributes {
+            for &x in &a.values[i * a.components..(i + 1) * a.components] {
+                bytes.extend_from_slice(&x.to_le_bytes());
+            }
+        }
     }
     super::write_atomically(path, |tmp| std::fs::write(tmp, &bytes))
         .map_err(|e| ParticleError::new(path, e))
 }
 
-/// Binary little-endian PLY with normals and, when given, velocities (`vx vy vz`), its
-/// body laid out in parallel.
+/// PLY has scalar properties only: a scalar attribute under its own name, a vector's
+/// components as `NAME_x NAME_y NAME_z`.
+fn attribute_names<'a>(attributes: impl IntoIterator<Item = &'a Attribute>) -> Vec<String> {
+    attributes
+        .into_iter()
+        .flat_map(|a| match a.components {
+            1 => vec![a.name.clone()],
+            _ => ["x", "y", "z"].map(|c| format!("{}_{c}", a.name)).to_vec(),
+        })
+        .collect()
+}
+
+/// Binary little-endian PLY with normals and, when given, velocities (`vx vy vz`) and
+/// attributes, its body laid out in parallel.
 pub fn write_mesh(mesh: &Mesh, values: VertexValues, path: &Path) -> Result<(), MeshError> {
-    let velocities = values
-        .velocities
-        .filter(|v| v.len() == mesh.positions.len());
-    let floats = 6 + 3 * usize::from(velocities.is_some());
+    let n = mesh.positions.len();
+    let velocities = values.velocities.filter(|v| v.len() == n);
+    let attributes: Vec<&Attribute> = values
+        .attributes
+        .iter()
+        .filter(|a| a.values.len() == n * a.components)
+        .collect();
+    let mut names: Vec<String> = ["x", "y", "z", "nx", "ny", "nz"].map(String::from).to_vec();
+    if velocities.is_some() {
+        names.extend(["vx", "vy", "vz"].map(String::from));
+    }
+    names.extend(attribute_names(attributes.iter().copied()));
+    let floats = names.len();
+    let properties: String = names
+        .iter()
+        .map(|name| format!("property float {name}\n"))
+        .collect();
     write_with(path, |w| {
         write!(
             w,
             "ply\nformat binary_little_endian 1.0\ncomment activeskin {}\n\
-             element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
-             property float nx\nproperty float ny\nproperty float nz\n{}\
+             element vertex {n}\n{properties}\
              element face {}\nproperty list uchar int vertex_indices\nend_header\n",
             env!("CARGO_PKG_VERSION"),
-            mesh.positions.len(),
-            match velocities {
-                Some(_) => "property float vx\nproperty float vy\nproperty float vz\n",
-                None => "",
-            },
             mesh.triangles.len()
         )?;
         write_records(w, &mesh.positions, 4 * floats, |i, p, out| {
-            let n = mesh.normals[i];
-            let v = velocities.map_or(Vec3::ZERO, |v| v[i]);
-            let record = [p.x, p.y, p.z, n.x, n.y, n.z, v.x, v.y, v.z];
-            for (k, x) in record[..floats].iter().enumerate() {
-                out[4 * k..4 * k + 4].copy_from_slice(&x.to_le_bytes());
+            let nrm = mesh.normals[i];
+            let mut record = [p.x, p.y, p.z, nrm.x, nrm.y, nrm.z]
+                .into_iter()
+                .chain(velocities.into_iter().flat_map(|v| v[i].to_array()));
+            let mut put =
+                |k: usize, x: f32| out[4 * k..4 * k + 4].copy_from_slice(&x.to_le_bytes());
+            let mut k = 0;
+            for x in record.by_ref() {
+                put(k, x);
+                k += 1;
+            }
+            for a in &attributes {
+                for &x in &a.values[i * a.components..(i + 1) * a.components] {
+                    put(k, x);
+                    k += 1;
+                }
             }
         })?;
         write_records(w, &mesh.triangles, 13, |_, t, out| {

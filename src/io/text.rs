@@ -84,6 +84,7 @@ fn parse_text(bytes: &[u8]) -> Result<Particles, TextError> {
         radii: (with_radius != 0).then(|| parsed.iter().filter_map(|r| r.radius).collect()),
         velocities: has_velocity.then(|| parsed.iter().filter_map(|r| r.velocity).collect()),
         ids: has_id.then(|| parsed.iter().filter_map(|r| r.id).collect()),
+        attributes: Vec::new(),
     })
 }
 

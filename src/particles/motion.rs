@@ -134,9 +134,9 @@ mod tests {
     ) -> Particles {
         Particles {
             positions,
-            radii: None,
             velocities,
             ids,
+            ..Particles::default()
         }
     }
 

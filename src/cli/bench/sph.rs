@@ -266,6 +266,7 @@ pub fn race(
         density_out: None,
         dx: r,
         velocity_scale: None,
+        attributes: Default::default(),
     };
     let lag: Vec<f64> = ours_meshes
         .iter()
