@@ -48,8 +48,10 @@ fn morph_writes_valid_level_sets_and_meshes() {
     for frame in 1..=6 {
         let path = dir.path().join(format!("skin.{frame:04}.vdb"));
         let grids = vdb::list_grids(&path).unwrap();
-        assert_eq!(grids.len(), 1);
+        // The level set, then the surface's velocity.
+        assert_eq!(grids.len(), 2);
         assert_eq!(grids[0].name, "surface");
+        assert_eq!(grids[1].name, "v");
         assert_eq!(
             activeskin::vdb::from_bridge_class(grids[0].grid_class),
             GridClass::LevelSet

@@ -73,7 +73,9 @@ fn moving_sphere_every_frame_valid_and_on_target() {
         assert_eq!(line["clean"], true, "{line}");
         let path = dir.path().join(format!("skin.{frame:04}.vdb"));
         let grids = vdb::list_grids(&path).unwrap();
-        assert_eq!(grids.len(), 1);
+        // The level set, then the surface's velocity.
+        assert_eq!(grids.len(), 2);
+        assert_eq!(grids[1].name, "v");
         let skin = read_skin(&path);
         assert_eq!(skin.name, "surface");
         assert_eq!(skin.class, GridClass::LevelSet);
@@ -249,7 +251,7 @@ fn killed_then_resumed_equals_uninterrupted() {
         let path = part.path().join(format!("m.{frame:04}.vdb"));
         assert_eq!(
             vdb::list_grids(&path).unwrap().len(),
-            1,
+            2,
             "frame {frame} damaged"
         );
     }

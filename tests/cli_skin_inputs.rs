@@ -82,7 +82,8 @@ fn a_bad_frame_stops_the_run_and_keeps_earlier_frames() {
         );
         for frame in 1..=3 {
             let path = out_dir.join(format!("skin.{frame:04}.vdb"));
-            assert_eq!(vdb::list_grids(&path).unwrap().len(), 1, "{what}");
+            // The level set and the surface's velocity `v`.
+            assert_eq!(vdb::list_grids(&path).unwrap().len(), 2, "{what}");
         }
     }
 }

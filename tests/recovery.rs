@@ -71,12 +71,13 @@ fn run_and_kill(out: &Path, resume: bool, delay: Duration) -> bool {
     true
 }
 
-/// Every VDB frame on disk opens with its one grid, and every mesh is whole.
+/// Every VDB frame on disk opens with its two grids (the level set, the surface's
+/// velocity), and every mesh is whole.
 fn assert_frames_whole(dir: &Path) {
     for name in names(dir) {
         let path = dir.join(&name);
         if name.ends_with(".vdb") && !name.starts_with('.') {
-            assert_eq!(vdb::list_grids(&path).unwrap().len(), 1, "{name}");
+            assert_eq!(vdb::list_grids(&path).unwrap().len(), 2, "{name}");
         }
         if name.ends_with(".ply") && !name.starts_with('.') {
             let mesh = std::panic::catch_unwind(|| common::read_mesh(&path));
