@@ -193,6 +193,49 @@ impl GridData {
             .map(|(at, ijk)| (ijk, self.leaf_values[at]))
     }
 
+    /// The index-space gradient of the values at each active voxel of the leaves, in
+    /// [`GridData::active_voxels`]' order: central differences between active
+    /// neighbours, one-sided where one side is inactive (a band's edge), 0 along an axis
+    /// where both are. Values per voxel: divide by the voxel size for world units.
+    pub fn active_gradients(&self) -> Vec<[f32; 3]> {
+        use rayon::prelude::*;
+        let leaves: hashbrown::HashMap<[i32; 3], usize> = self
+            .leaf_origins
+            .iter()
+            .enumerate()
+            .map(|(i, &o)| (o, i))
+            .collect();
+        let value = |ijk: [i32; 3]| -> Option<f32> {
+            let leaf = *leaves.get(&ijk.map(|c| c & !7))?;
+            let n = ((ijk[0] & 7) << 6 | (ijk[1] & 7) << 3 | (ijk[2] & 7)) as usize;
+            let active = self.leaf_masks[leaf][n >> 6] >> (n & 63) & 1 == 1;
+            active.then(|| self.leaf_values[leaf * LEAF_VOXELS + n])
+        };
+        (0..self.leaf_origins.len())
+            .into_par_iter()
+            .flat_map_iter(|leaf| {
+                let origins = &self.leaf_origins[leaf..leaf + 1];
+                let masks = &self.leaf_masks[leaf..leaf + 1];
+                active_in_leaves(origins, masks).map(move |(n, ijk)| {
+                    let here = self.leaf_values[leaf * LEAF_VOXELS + n];
+                    std::array::from_fn(|axis| {
+                        let step = |d: i32| {
+                            let mut at = ijk;
+                            at[axis] += d;
+                            value(at)
+                        };
+                        match (step(-1), step(1)) {
+                            (Some(below), Some(above)) => 0.5 * (above - below),
+                            (Some(below), None) => here - below,
+                            (None, Some(above)) => above - here,
+                            (None, None) => 0.0,
+                        }
+                    })
+                })
+            })
+            .collect()
+    }
+
     pub fn leaf_values(&self, leaf: usize) -> &[f32] {
         &self.leaf_values[leaf * LEAF_VOXELS..(leaf + 1) * LEAF_VOXELS]
     }
@@ -282,8 +325,8 @@ pub struct VectorTile {
 }
 
 #[cfg(test)]
-mod scale_translate_tests {
-    use super::Transform;
+mod tests {
+    use super::{GridClass, GridData, Transform, LEAF_VOXELS, MASK_WORDS};
 
     #[test]
     fn only_axis_aligned_positive_uniform_voxels_are_a_scale_and_translation() {
@@ -305,5 +348,41 @@ mod scale_translate_tests {
             flipped.matrix[i] = -0.25;
         }
         assert_eq!(flipped.scale_translate(), None);
+    }
+
+    /// Two leaves side by side along x hold φ = 2x + 3y (in voxels), the second with
+    /// its last x-row inactive: the gradient is (2, 3, 0) on every active voxel, across
+    /// the leaves' seam and at the band's edges (one-sided there), in active_voxels'
+    /// order.
+    #[test]
+    fn gradients_cross_leaves_and_stop_at_the_band() {
+        let mut data = GridData::empty(
+            "g",
+            GridClass::LevelSet,
+            3.0,
+            Transform::uniform(1.0, [0.0; 3]),
+        );
+        for origin in [[0, 0, 0], [8, 0, 0]] {
+            let mut mask = [u64::MAX; MASK_WORDS];
+            let values: Vec<f32> = (0..LEAF_VOXELS)
+                .map(|n| {
+                    let (x, y) = ((n >> 6) as i32 + origin[0], ((n >> 3) & 7) as i32);
+                    if x == 15 {
+                        // Inactive: the background, as a band's outside holds.
+                        mask[n >> 6] &= !(1 << (n & 63));
+                        return 3.0;
+                    }
+                    (2 * x + 3 * y) as f32
+                })
+                .collect();
+            data.push_leaf(origin, &values, mask);
+        }
+        let gradients = data.active_gradients();
+        let voxels: Vec<([i32; 3], f32)> = data.active_voxels().collect();
+        assert_eq!(gradients.len(), voxels.len());
+        assert_eq!(voxels.len(), 2 * LEAF_VOXELS - 64);
+        for (g, (ijk, _)) in gradients.iter().zip(&voxels) {
+            assert_eq!(*g, [2.0, 3.0, 0.0], "{ijk:?}");
+        }
     }
 }
