@@ -97,6 +97,39 @@ fn particles_a_kilometre_apart_and_a_stray_one() {
             _ => assert!(notes.is_empty(), "{said}"),
         }
     }
+    // The far ball costs its own surface: the same two balls a unit apart take as many
+    // band nodes and about the memory (at most twice).
+    let mut near = ball(Vec3::ZERO, r);
+    near.extend(ball(Vec3::splat(1.0), r));
+    write_xyz(&dir.path().join("near.xyz"), &near);
+    let cost = |name: &str| {
+        let stats = dir.path().join(format!("{name}.cost.jsonl"));
+        let (out, peak) = common::activeskin_measured(&[
+            "particles",
+            "--particles",
+            dir.path().join(format!("{name}.xyz")).to_str().unwrap(),
+            "--radius",
+            "0.02",
+            "--frames",
+            "1-2",
+            "--stats",
+            stats.to_str().unwrap(),
+        ]);
+        assert_ok(&out);
+        let nodes: Vec<u64> = stats_lines(&stats)
+            .iter()
+            .map(|l| l["band_nodes"].as_u64().unwrap())
+            .collect();
+        (nodes, peak)
+    };
+    let ((far_nodes, far_peak), (near_nodes, near_peak)) = (cost("two"), cost("near"));
+    println!(
+        "particles: band nodes {far_nodes:?} against {near_nodes:?}; peak {} MB against {} MB",
+        far_peak / 1_000_000,
+        near_peak / 1_000_000
+    );
+    assert_eq!(far_nodes, near_nodes);
+    assert!(far_peak <= 2 * near_peak, "{far_peak} {near_peak}");
 }
 
 /// `data` with a copy of its leaves and tiles moved by `shift` voxels (a multiple of 8).
@@ -140,4 +173,36 @@ fn level_set_drops_a_kilometre_apart() {
     ]);
     assert_ok(&out);
     assert_eq!(components(&stats), vec![2, 2]);
+    // What the far drop costs is its own surface: the same two drops a unit apart (32
+    // voxels) take as many band nodes, and the kilometre costs no more than twice
+    // their memory (measured: the same within a few percent).
+    let near = with_copy(&one, 32);
+    for f in 1..=2 {
+        common::write_grid(&dir.path().join(format!("near.{f:04}.vdb")), &near);
+    }
+    let cost = |name: &str| {
+        let stats = dir.path().join(format!("{name}.cost.jsonl"));
+        let target = dir.path().join(format!("{name}.####.vdb"));
+        let (out, peak) = common::activeskin_measured(&[
+            "skin",
+            "--target",
+            target.to_str().unwrap(),
+            "--stats",
+            stats.to_str().unwrap(),
+        ]);
+        assert_ok(&out);
+        let nodes: Vec<u64> = stats_lines(&stats)
+            .iter()
+            .map(|l| l["band_nodes"].as_u64().unwrap())
+            .collect();
+        (nodes, peak)
+    };
+    let ((far_nodes, far_peak), (near_nodes, near_peak)) = (cost("drops"), cost("near"));
+    println!(
+        "band nodes {far_nodes:?} against {near_nodes:?}; peak {} MB against {} MB",
+        far_peak / 1_000_000,
+        near_peak / 1_000_000
+    );
+    assert_eq!(far_nodes, near_nodes);
+    assert!(far_peak <= 2 * near_peak, "{far_peak} {near_peak}");
 }
