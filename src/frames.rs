@@ -36,7 +36,7 @@ use crate::io::image::RenderError;
 use crate::io::mesh::MeshError;
 use crate::io::particles::ParticleError;
 use crate::sequence::PatternError;
-use crate::skin::velocity::Motion;
+use crate::skin::velocity::{Motion, SurfaceMotion};
 use crate::skin::{AnySkin, SkinError};
 use crate::target::{LevelSetTarget, Target};
 #[cfg(feature = "vdb")]
@@ -142,21 +142,10 @@ impl<'t> Before<'t> {
     }
 }
 
-/// What the outputs write beside the settled skin's surface. Its velocity
-/// ([`crate::skin::velocity`]) where `(mesh, grid)` say: the material's motion the
-/// frame's input knows (its flow map, else its velocity), the skin's own against the
-/// frame before's settled level set; at the mesh's vertices, and at the active voxels of
-/// `level_set` (each at its own level, along the level set's gradient there). The
-/// input's particle attributes at the mesh's vertices, where `wants_attributes`.
-fn surface_values(
-    (skin, level_set): (&AnySkin, &GridData),
-    input: Option<&FrameInput>,
-    before: Option<&GridData>,
-    duration: f64,
-    ((mesh, grid), wants_attributes): ((bool, bool), bool),
-) -> SurfaceValues {
-    let dx = skin.params().dx;
-    let motion = match input {
+/// The material's motion over the frame that ends here, as the frame's input knows it
+/// (its flow map, else its velocity).
+fn motion_of<'a>(input: Option<&'a FrameInput>) -> Motion<'a> {
+    match input {
         Some(FrameInput {
             carried: Some(map), ..
         }) => Motion::Map(&**map),
@@ -164,21 +153,21 @@ fn surface_values(
             flow: Some(flow), ..
         }) => Motion::Flow(&**flow),
         _ => Motion::Still,
-    };
-    let before = before.map(|b| (LevelSetTarget::new(b), b.background - dx));
-    let before = before.as_ref().map(|(t, reach)| (t as &dyn Target, *reach));
-    let at = |points: &[glam::Vec3], normals: &[glam::Vec3], levels: Option<&[f32]>| {
-        crate::skin::velocity::surface_velocities(
-            points,
-            normals,
-            levels,
-            motion,
-            before,
-            duration as f32,
-            dx,
-        )
-    };
-    let mesh = mesh.then(|| at(&skin.mesh().positions, &skin.mesh().normals, None));
+    }
+}
+
+/// What the outputs write beside the settled skin's surface. Its velocity
+/// ([`crate::skin::velocity`], `motion`) where `(mesh, grid)` say: at the mesh's vertices,
+/// and at the active voxels of `level_set` (each at its own level, along the level set's
+/// gradient there). The input's particle attributes at the mesh's vertices, where
+/// `wants_attributes`.
+fn surface_values(
+    (skin, level_set): (&AnySkin, &GridData),
+    input: Option<&FrameInput>,
+    motion: &SurfaceMotion,
+    ((mesh, grid), wants_attributes): ((bool, bool), bool),
+) -> SurfaceValues {
+    let mesh = mesh.then(|| motion.at(&skin.mesh().positions, &skin.mesh().normals, None));
     let grid = grid.then(|| {
         let (coords, values): (Vec<[i32; 3]>, Vec<f32>) = level_set.active_voxels().unzip();
         // Normals from the voxels' own differences: sampling the level set for them took
@@ -195,7 +184,7 @@ fn surface_values(
                 glam::DVec3::from(x).as_vec3()
             })
             .collect();
-        let velocities = at(&points, &normals, Some(&values));
+        let velocities = motion.at(&points, &normals, Some(&values));
         (coords, velocities.iter().map(|v| v.to_array()).collect())
     });
     // Particle attributes where the mesh holds them.
@@ -264,8 +253,9 @@ pub fn run<'t>(
     let mut previous: Option<Before<'t>> = None;
     // The frame before's settled skin, where the surface's velocity is written: its
     // motion over the frame is measured against it.
-    let velocities = outputs.wants_velocities();
-    let any_velocities = velocities.0 || velocities.1;
+    let (mesh_velocities, grid_velocities, render_motion) = outputs.wants_velocities();
+    let velocities = (mesh_velocities, grid_velocities);
+    let any_velocities = mesh_velocities || grid_velocities || render_motion;
     let attributes = outputs.mesh_holds_values();
     let mut settled_before = restored.filter(|_| any_velocities);
     for frame in start..=last {
@@ -332,14 +322,30 @@ pub fn run<'t>(
                 substeps,
                 ..skin.stats_with(outputs.reports_topology())
             };
+            let dx = skin.params().dx;
+            let before = settled_before
+                .as_ref()
+                .map(|b| (LevelSetTarget::new(b), b.background - dx));
+            let motion = SurfaceMotion {
+                motion: motion_of(input.as_ref()),
+                before: before.as_ref().map(|(t, reach)| (t as &dyn Target, *reach)),
+                duration: duration as f32,
+                dx,
+            };
             let surface = surface_values(
                 (&skin, &level_set),
                 input.as_ref(),
-                settled_before.as_ref(),
-                duration,
+                &motion,
                 (velocities, attributes),
             );
-            outputs.write_frame(frame, (&skin, &level_set), &surface, &stats, started)?;
+            let motion = render_motion.then_some(&motion);
+            outputs.write_frame(
+                frame,
+                (&skin, &level_set),
+                (&surface, motion),
+                &stats,
+                started,
+            )?;
         }
         if let Some(input) = input {
             previous = Some(Before::of(input));

@@ -60,6 +60,90 @@ pub struct Render {
     pub depth: Vec<f32>,
     /// World-space unit normal where the ray hit, zero elsewhere.
     pub normal: Vec<Vec3>,
+    /// Where each pixel moves over the next frame, in pixels (u rightward, v upward, as
+    /// Nuke's `forward` channels), when the surface's velocity was given
+    /// ([`Render::set_motion`]).
+    pub motion: Option<Vec<[f32; 2]>>,
+    pub camera: Camera,
+}
+
+/// A pinhole camera: its eye, its orthonormal frame, the tangent of half its vertical
+/// field of view and the image's aspect (width over height).
+#[derive(Debug, Clone, Copy)]
+pub struct Camera {
+    pub eye: Vec3,
+    pub forward: Vec3,
+    pub right: Vec3,
+    pub up: Vec3,
+    pub tan_half_fov: f32,
+    pub size: (usize, usize),
+}
+
+impl Camera {
+    fn aspect(&self) -> f32 {
+        self.size.0 as f32 / self.size.1.max(1) as f32
+    }
+
+    /// The unit ray through the centre of pixel `i` (row-major from the top left).
+    pub fn ray(&self, i: usize) -> Vec3 {
+        let (width, height) = self.size;
+        let (x, y) = (i % width, i / width);
+        let t = self.tan_half_fov;
+        let u = (2.0 * (x as f32 + 0.5) / width as f32 - 1.0) * t * self.aspect();
+        let v = (1.0 - 2.0 * (y as f32 + 0.5) / height as f32) * t;
+        (self.forward + self.right * u + self.up * v).normalize()
+    }
+
+    /// Where `p` lands on the image, in pixels from the top left (x rightward, y
+    /// downward); `None` behind the eye.
+    pub fn project(&self, p: Vec3) -> Option<(f32, f32)> {
+        let d = p - self.eye;
+        let depth = d.dot(self.forward);
+        if depth <= 0.0 {
+            return None;
+        }
+        let t = self.tan_half_fov;
+        let u = d.dot(self.right) / depth / (t * self.aspect());
+        let v = d.dot(self.up) / depth / t;
+        let (width, height) = (self.size.0 as f32, self.size.1 as f32);
+        Some((0.5 * (u + 1.0) * width, 0.5 * (1.0 - v) * height))
+    }
+}
+
+impl Render {
+    /// The pixels where the ray hit the surface, with the world point and normal hit.
+    pub fn hits(&self) -> (Vec<usize>, Vec<Vec3>, Vec<Vec3>) {
+        let pixels: Vec<usize> = (0..self.depth.len())
+            .filter(|&i| self.depth[i].is_finite())
+            .collect();
+        let points = pixels
+            .iter()
+            .map(|&i| self.camera.eye + self.camera.ray(i) * self.depth[i])
+            .collect();
+        let normals = pixels.iter().map(|&i| self.normal[i]).collect();
+        (pixels, points, normals)
+    }
+
+    /// The motion pass: each hit pixel's point moved by its `velocities` (world units per
+    /// second, one per pixel of [`Render::hits`]) over `duration` seconds, as the image
+    /// sees it; 0 where the ray missed.
+    pub fn set_motion(
+        &mut self,
+        hits: &(Vec<usize>, Vec<Vec3>, Vec<Vec3>),
+        velocities: &[Vec3],
+        duration: f32,
+    ) {
+        let mut motion = vec![[0.0f32; 2]; self.depth.len()];
+        for ((&i, &p), &v) in hits.0.iter().zip(&hits.1).zip(velocities) {
+            if let (Some(a), Some(b)) = (
+                self.camera.project(p),
+                self.camera.project(p + v * duration),
+            ) {
+                motion[i] = [b.0 - a.0, a.1 - b.1];
+            }
+        }
+        self.motion = Some(motion);
+    }
 }
 
 /// Renders the zero set of `target` inside `frame` (a box the camera fits: its bounding
@@ -86,13 +170,18 @@ pub fn render(
     let up = right.cross(direction);
     let light = (up - right * 0.6 - direction * 0.8).normalize();
 
+    let camera = Camera {
+        eye,
+        forward: direction,
+        right,
+        up,
+        tan_half_fov: half_fov.tan(),
+        size,
+    };
     let pixels: Vec<(Option<(f32, Vec3)>, Vec3)> = (0..width * height)
         .into_par_iter()
         .map(|i| {
-            let (x, y) = (i % width, i / width);
-            let u = (2.0 * (x as f32 + 0.5) / width as f32 - 1.0) * half_fov.tan() * aspect;
-            let v = (1.0 - 2.0 * (y as f32 + 0.5) / height as f32) * half_fov.tan();
-            let ray = (direction + right * u + up * v).normalize();
+            let ray = camera.ray(i);
             (trace(target, eye, ray, frame, step), ray)
         })
         .collect();
@@ -102,6 +191,8 @@ pub fn render(
         rgba: Vec::with_capacity(pixels.len()),
         depth: Vec::with_capacity(pixels.len()),
         normal: Vec::with_capacity(pixels.len()),
+        motion: None,
+        camera,
     };
     let albedo = Vec3::new(0.72, 0.74, 0.78);
     for (hit, ray) in pixels {

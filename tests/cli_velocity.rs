@@ -643,3 +643,90 @@ fn the_skin_vdbs_carry_the_surfaces_velocity_as_v() {
     let types = vdb::grid_types(&quiet.path().join("s.0002.vdb")).unwrap();
     assert_eq!(types.len(), 1, "{types:?}");
 }
+
+/// EXR renders carry the motion pass `forward.u`/`forward.v` (pixels over the next
+/// frame, v upward, as Nuke's VectorBlur reads it): a gliding sphere's pixels, moved by
+/// it, land where the next frame's render has them (the alpha mask's centroid, to a
+/// tenth of its shift). (A spin would move the surface's points along it, which the
+/// pass shows and the silhouette does not.)
+#[test]
+fn exr_renders_carry_the_motion_pass() {
+    let data = common::scratch();
+    // Gliding 2 voxels a frame along x and up a little.
+    let speed = Vec3::new(2.0, 0.5, 0.0) * DX * 24.0;
+    let glide = |frame: i64| Sphere {
+        center: Vec3::new(-0.3, 0.0, 0.0) + speed * (frame - 1) as f32 / 24.0,
+        radius: 0.25,
+    };
+    let target = write_frames(data.path(), ("vel", false, false), glide, |_, _| speed);
+    let out = common::scratch();
+    let renders = out.path().join("r.####.exr");
+    let args = [
+        "skin",
+        "--target",
+        &target,
+        "--alpha",
+        "4",
+        "-q",
+        "--render",
+        renders.to_str().unwrap(),
+        "--render-size",
+        "160x120",
+    ];
+    assert_ok(&activeskin(&args));
+    let read = |frame: i64| {
+        let path = out.path().join(format!("r.{frame:04}.exr"));
+        let image = exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
+        let layer = &image.layer_data[0];
+        let channel = |name: &str| -> Vec<f32> {
+            let c = layer
+                .channel_data
+                .list
+                .iter()
+                .find(|c| c.name.to_string() == name)
+                .unwrap_or_else(|| panic!("no channel {name}"));
+            c.sample_data.values_as_f32().collect()
+        };
+        (channel("A"), channel("forward.u"), channel("forward.v"))
+    };
+    let width = 160;
+    // Centroid of the covered pixels (x rightward, y upward) and the mean motion there.
+    let centroid = |a: &[f32]| {
+        let (mut sum, mut n) = ((0.0f64, 0.0f64), 0.0);
+        for (i, &alpha) in a.iter().enumerate() {
+            if alpha > 0.0 {
+                sum.0 += (i % width) as f64;
+                sum.1 -= (i / width) as f64;
+                n += 1.0;
+            }
+        }
+        (sum.0 / n, sum.1 / n)
+    };
+    let (mut off, mut shift) = (0.0f64, 0.0f64);
+    // Early frames: the camera frames the first skin, which later frames leave.
+    for frame in [2, 3] {
+        let (a, u, v) = read(frame);
+        let (next, ..) = read(frame + 1);
+        let covered: Vec<usize> = (0..a.len()).filter(|&i| a[i] > 0.0).collect();
+        let n = covered.len() as f64;
+        let moved = (
+            covered.iter().map(|&i| f64::from(u[i])).sum::<f64>() / n,
+            covered.iter().map(|&i| f64::from(v[i])).sum::<f64>() / n,
+        );
+        let (here, there) = (centroid(&a), centroid(&next));
+        let actual = (there.0 - here.0, there.1 - here.1);
+        println!("frame {frame}: actual {actual:?} pass {moved:?}");
+        off += (actual.0 - moved.0).hypot(actual.1 - moved.1);
+        shift += actual.0.hypot(actual.1);
+    }
+    println!(
+        "motion pass: centroid moves {:.2} px a frame, the pass is {:.3} px off",
+        shift / 2.0,
+        off / 2.0
+    );
+    assert!(
+        shift / 2.0 > 1.0,
+        "the sphere barely moves on screen: {shift}"
+    );
+    assert!(off < 0.1 * shift, "{off} against {shift}");
+}

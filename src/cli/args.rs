@@ -139,8 +139,9 @@ pub struct OutputArgs {
     /// Meshes, OBJ or PLY by extension, same patterns.
     #[arg(long)]
     pub mesh: Option<String>,
-    /// Renders: multi-layer EXR (RGBA, Z, N) or PNG by extension, same patterns; the
-    /// camera frames the first frame's skin and stays put.
+    /// Renders: multi-layer EXR (RGBA, Z, N, and the motion pass forward.u/forward.v
+    /// with --velocities on) or PNG by extension, same patterns; the camera frames the
+    /// first frame's skin and stays put.
     #[arg(long)]
     pub render: Option<String>,
     /// Render size, WIDTHxHEIGHT.
@@ -157,8 +158,8 @@ pub struct OutputArgs {
     #[arg(long)]
     pub resume: bool,
     /// The surface's velocity (world units per second), for motion blur: on each vertex
-    /// of PLY meshes (`vx vy vz`) and as the vector grid `v` on the level set's voxels in
-    /// --out VDBs. The material's motion (the particles', the velocity grid's) and the
+    /// of PLY meshes (`vx vy vz`), as the vector grid `v` on the level set's voxels in
+    /// --out VDBs, as the motion pass of EXR renders. The material's motion (the particles', the velocity grid's) and the
     /// skin's own across it; `off` leaves it out.
     #[arg(long, value_name = "on|off", default_value = "on", action = clap::ArgAction::Set, value_parser = clap::builder::BoolishValueParser::new())]
     pub velocities: bool,

@@ -12,6 +12,7 @@ use super::FrameError;
 use crate::grid::Aabb;
 use crate::render::{self, Up, View};
 use crate::sequence::FramePattern;
+use crate::skin::velocity::SurfaceMotion;
 use crate::skin::{AnySkin, StepStats};
 use crate::target::{LevelSetTarget, Target};
 #[cfg(feature = "vdb")]
@@ -192,13 +193,19 @@ impl Outputs {
         self.resume
     }
 
-    /// Where a frame's surface velocities are written, as (mesh, grid): asked for, and
-    /// the mesh's format holds them (PLY), or skin VDBs are written.
-    pub fn wants_velocities(&self) -> (bool, bool) {
+    /// Where a frame's surface velocities are written, as (mesh, grid, render): asked
+    /// for, and the mesh's format holds them (PLY), skin VDBs are written, renders are
+    /// EXR (a motion pass).
+    pub fn wants_velocities(&self) -> (bool, bool, bool) {
         let mesh = self.mesh_holds_values();
+        let exr = self
+            .render
+            .as_ref()
+            .is_some_and(|r| crate::io::has_extension(&r.0.path(0), &["exr"]));
         (
             self.velocities && mesh,
             self.velocities && self.out.is_some(),
+            self.velocities && exr,
         )
     }
 
@@ -222,7 +229,7 @@ impl Outputs {
         &mut self,
         frame: i64,
         (skin, level_set): (&AnySkin, &GridData),
-        velocities: &SurfaceValues,
+        (velocities, motion): (&SurfaceValues, Option<&SurfaceMotion>),
         stats: &StepStats,
         started: Instant,
     ) -> Result<(), FrameError> {
@@ -239,7 +246,14 @@ impl Outputs {
             let target = LevelSetTarget::new(data);
             let bounds = target.bounds();
             let frame_box = *camera.get_or_insert_with(|| framing(bounds));
-            let image = render::render(&target, frame_box, (View::Perspective, self.up), *size, dx);
+            let mut image =
+                render::render(&target, frame_box, (View::Perspective, self.up), *size, dx);
+            if let Some(motion) = motion {
+                // The surface's velocity where each pixel's ray hit it.
+                let hits = image.hits();
+                let velocities = motion.at(&hits.1, &hits.2, None);
+                image.set_motion(&hits, &velocities, motion.duration);
+            }
             crate::io::image::write(&image, &pattern.path(frame))?;
         }
         let ms = started.elapsed().as_secs_f64() * 1e3;

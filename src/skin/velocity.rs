@@ -32,6 +32,32 @@ pub enum Motion<'a> {
     Still,
 }
 
+/// What [`surface_velocities`] needs besides the points: the material's motion, the skin
+/// a frame before (a signed distance, trusted up to its reach), the frame's duration
+/// and the voxel. Kept by the frame loop for every output that asks.
+#[derive(Clone, Copy)]
+pub struct SurfaceMotion<'a> {
+    pub motion: Motion<'a>,
+    pub before: Option<(&'a dyn Target, f32)>,
+    pub duration: f32,
+    pub dx: f32,
+}
+
+impl SurfaceMotion<'_> {
+    /// [`surface_velocities`] at `points`.
+    pub fn at(&self, points: &[Vec3], normals: &[Vec3], levels: Option<&[f32]>) -> Vec<Vec3> {
+        surface_velocities(
+            points,
+            normals,
+            levels,
+            self.motion,
+            self.before,
+            self.duration,
+            self.dx,
+        )
+    }
+}
+
 /// The velocity (world units per second) of the surface through `points`, each with the
 /// skin's unit outward `normals` there and its level (`levels[i]`, world units: zero on
 /// the surface, a node's signed distance off it), given the material's `motion` and the
