@@ -206,6 +206,34 @@ fn vector_attributes_from_vtk_and_all_of_them() {
     assert!(mean < 0.01, "vorticity_x off by {mean}");
 }
 
+/// A CSV whose header names its columns in any order (ParaView's spelling): the other
+/// columns are attributes under their header's names.
+#[test]
+fn csv_columns_are_attributes_by_their_header_names() {
+    let data = scratch();
+    for frame in 1..=2 {
+        let mut text = String::from("\"age\",\"Points:0\",\"Points:1\",\"Points:2\",\"T [K]\"\n");
+        for p in ball(Vec3::new(0.04 * frame as f32, 0.0, 0.0)) {
+            text += &format!("{},{},{},{},{}\n", 7.5, p.x, p.y, p.z, temperature(p));
+        }
+        std::fs::write(data.path().join(format!("p.{frame}.csv")), text).unwrap();
+    }
+    let input = data.path().join("p.#.csv");
+    let out = scratch();
+    let mesh = out.path().join("m.####.ply");
+    let run = particles(
+        input.to_str().unwrap(),
+        &mesh,
+        &["--attribute", "T [K]", "--attribute", "age"],
+    );
+    assert_ok(&run);
+    let mesh = mesh_values(&out.path().join("m.0002.ply"));
+    // One token a PLY property: the space becomes `_`.
+    assert_eq!(names(&mesh), ["nx", "ny", "nz", "T_[K]", "age"]);
+    let age = attribute(&mesh, "age");
+    assert!(age.values.iter().all(|&a| (a - 7.5).abs() < 1e-5));
+}
+
 #[test]
 fn a_missing_attribute_or_a_mesh_that_cannot_hold_it_is_one_line() {
     let data = scratch();

@@ -306,7 +306,8 @@ pub fn write_particles(path: &Path, particles: &Particles) -> Result<(), Particl
             "property int id\n"
         };
     }
-    for name in attribute_names(&particles.attributes) {
+    let taken = ["x", "y", "z", "vx", "vy", "vz", "radius", "id"];
+    for name in attribute_names(&particles.attributes, &taken) {
         header += &format!("property float {name}\n");
     }
     header += "end_header\n";
@@ -340,16 +341,34 @@ pub fn write_particles(path: &Path, particles: &Particles) -> Result<(), Particl
         .map_err(|e| ParticleError::new(path, e))
 }
 
-/// PLY has scalar properties only: a scalar attribute under its own name, a vector's
-/// components as `NAME_x NAME_y NAME_z`.
-fn attribute_names<'a>(attributes: impl IntoIterator<Item = &'a Attribute>) -> Vec<String> {
-    attributes
-        .into_iter()
-        .flat_map(|a| match a.components {
-            1 => vec![a.name.clone()],
-            _ => ["x", "y", "z"].map(|c| format!("{}_{c}", a.name)).to_vec(),
-        })
-        .collect()
+/// PLY has scalar properties only, named by one token: a scalar attribute under its own
+/// name, a vector's components as `NAME_x NAME_y NAME_z`; white space in a name becomes
+/// `_` (`T [K]` → `T_[K]`), and a name taken already (by `taken`, or an earlier one)
+/// gets `_` appended until it is free.
+fn attribute_names<'a>(
+    attributes: impl IntoIterator<Item = &'a Attribute>,
+    taken: &[&str],
+) -> Vec<String> {
+    let mut used: Vec<String> = taken.iter().map(|t| t.to_string()).collect();
+    let mut out = Vec::new();
+    for a in attributes {
+        let base = match a.name.split_whitespace().collect::<Vec<_>>().join("_") {
+            b if b.is_empty() => "attribute".to_string(),
+            b => b,
+        };
+        let components: Vec<String> = match a.components {
+            1 => vec![base],
+            _ => ["x", "y", "z"].map(|c| format!("{base}_{c}")).to_vec(),
+        };
+        for mut name in components {
+            while used.contains(&name) {
+                name.push('_');
+            }
+            used.push(name.clone());
+            out.push(name);
+        }
+    }
+    out
 }
 
 /// Binary little-endian PLY with normals and, when given, velocities (`vx vy vz`) and
@@ -366,7 +385,9 @@ pub fn write_mesh(mesh: &Mesh, values: VertexValues, path: &Path) -> Result<(), 
     if velocities.is_some() {
         names.extend(["vx", "vy", "vz"].map(String::from));
     }
-    names.extend(attribute_names(attributes.iter().copied()));
+    let taken: Vec<&str> = names.iter().map(String::as_str).collect();
+    let extra = attribute_names(attributes.iter().copied(), &taken);
+    names.extend(extra);
     let floats = names.len();
     let properties: String = names
         .iter()
@@ -407,4 +428,31 @@ pub fn write_mesh(mesh: &Mesh, values: VertexValues, path: &Path) -> Result<(), 
             }
         })
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One token each, none taken twice: a space, a clash with a property written before
+    /// (a particle attribute called `nx` beside the mesh's normals), a vector.
+    #[test]
+    fn attribute_names_are_single_free_tokens() {
+        let attribute = |name: &str, components| Attribute {
+            name: name.into(),
+            components,
+            values: Vec::new(),
+        };
+        let attributes = [
+            attribute("T [K]", 1),
+            attribute("nx", 1),
+            attribute("w", 3),
+            attribute("w_x", 1),
+            attribute("", 1),
+        ];
+        assert_eq!(
+            attribute_names(&attributes, &["x", "y", "z", "nx"]),
+            ["T_[K]", "nx_", "w_x", "w_y", "w_z", "w_x_", "attribute"]
+        );
+    }
 }

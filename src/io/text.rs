@@ -4,13 +4,13 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::particles::Particles;
+use crate::particles::{Attribute, Particles};
 
 /// Text particles: `x y z [radius]` per line (spaces, commas or semicolons), or a CSV
 /// whose header names its columns in any order — `x y z`, ParaView's `Points:0`,
 /// DualSPHysics' `Pos.x [m]`, `position_x`, …; radius (`radius`, `pscale`), velocity
-/// (`vx`, `velocity:0`, `Vel.x`, `v_x`, …) and id (`id`, `Idp`) read by name, other
-/// columns ignored.
+/// (`vx`, `velocity:0`, `Vel.x`, `v_x`, …) and id (`id`, `Idp`) read by name, every
+/// other column an attribute under its header's name (`particles --attribute`).
 /// A text particle file that cannot be read: what is wrong, where (a line, an element).
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
@@ -79,12 +79,21 @@ fn parse_text(bytes: &[u8]) -> Result<Particles, TextError> {
     // Velocity and id columns are the header's: every row has them, or none.
     let has_velocity = parsed.first().is_some_and(|r| r.velocity.is_some());
     let has_id = parsed.first().is_some_and(|r| r.id.is_some());
+    let extra = columns.as_ref().map_or(&[][..], |c| &c.extra[..]);
     Ok(Particles {
         positions: parsed.iter().map(|r| r.position).collect(),
         radii: (with_radius != 0).then(|| parsed.iter().filter_map(|r| r.radius).collect()),
         velocities: has_velocity.then(|| parsed.iter().filter_map(|r| r.velocity).collect()),
         ids: has_id.then(|| parsed.iter().filter_map(|r| r.id).collect()),
-        attributes: Vec::new(),
+        attributes: extra
+            .iter()
+            .enumerate()
+            .map(|(k, (name, _))| Attribute {
+                name: name.clone(),
+                components: 1,
+                values: parsed.iter().map(|r| r.extra[k]).collect(),
+            })
+            .collect(),
     })
 }
 
@@ -94,6 +103,8 @@ struct Row {
     radius: Option<f32>,
     velocity: Option<Vec3>,
     id: Option<i64>,
+    /// The header's other columns, in its order.
+    extra: Vec<f32>,
 }
 
 /// A line's fields: split at commas, semicolons or tabs when it has any (names may hold
@@ -131,6 +142,7 @@ fn row(n: usize, numbers: &[f64], columns: Option<&Columns>) -> Result<Row, Text
                 radius: c.radius.map(at),
                 velocity: c.velocity.map(|v| Vec3::new(at(v[0]), at(v[1]), at(v[2]))),
                 id: c.id.map(|k| numbers[k] as i64),
+                extra: c.extra.iter().map(|&(_, k)| at(k)).collect(),
             })
         }
         None => match numbers.len() {
@@ -139,6 +151,7 @@ fn row(n: usize, numbers: &[f64], columns: Option<&Columns>) -> Result<Row, Text
                 radius: (numbers.len() == 4).then(|| at(3)),
                 velocity: None,
                 id: None,
+                extra: Vec::new(),
             }),
             k => Err(format!(
                 "line {n}: {k} numbers, expected x y z [radius] (or a header naming the columns)"
@@ -155,6 +168,8 @@ struct Columns {
     radius: Option<usize>,
     velocity: Option<[usize; 3]>,
     id: Option<usize>,
+    /// Every other column: its name as the header gives it, its index.
+    extra: Vec<(String, usize)>,
     /// Columns a row must have: one past the last read.
     width: usize,
 }
@@ -180,11 +195,20 @@ impl Columns {
         let radius = find(&["radius", "pscale", "r"], None);
         let velocity = vector(&["v", "vel", "velocity", "velocities"]);
         let id = find(&["id", "idp", "pid", "ids"], None);
-        let width = x
+        let read: Vec<usize> = x
             .iter()
             .chain(velocity.iter().flatten())
             .chain(radius.iter())
             .chain(id.iter())
+            .copied()
+            .collect();
+        let extra: Vec<(String, usize)> = (0..names.len())
+            .filter(|k| !read.contains(k))
+            .map(|k| (names[k].trim().trim_matches('"').to_string(), k))
+            .collect();
+        let width = read
+            .iter()
+            .chain(extra.iter().map(|(_, k)| k))
             .max()
             .map_or(0, |&k| k + 1);
         Some(Columns {
@@ -192,6 +216,7 @@ impl Columns {
             radius,
             velocity,
             id,
+            extra,
             width,
         })
     }
