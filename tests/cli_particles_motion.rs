@@ -203,18 +203,8 @@ fn a_chunk_holds_the_volume_the_whole_shot_holds() {
     write_shot(dir.path(), 12);
     let pattern = dir.path().join("ball_$F.ply");
     let run = |stats: &Path, frames: &[&str]| {
-        let mut args = vec![
-            "particles",
-            "--particles",
-            pattern.to_str().unwrap(),
-            "--radius",
-            "0.01",
-            "--voxel-size",
-            "0.01",
-            "--stats",
-            stats.to_str().unwrap(),
-            "-q",
-        ];
+        let mut args = particles_at_r(&pattern);
+        args.extend_from_slice(&["--stats", stats.to_str().unwrap(), "-q"]);
         args.extend_from_slice(frames);
         common::assert_ok(&common::activeskin(&args));
         common::stats_lines(stats)
@@ -271,22 +261,18 @@ fn a_carried_run_resumes_bit_for_bit() {
 /// (PLY: with the velocities, measured against the frame before), plus `extra`.
 fn skin_into(pattern: &Path, into: &Path, extra: &[&str]) {
     let (vdb, ply) = (into.join("s.####.vdb"), into.join("s.####.ply"));
-    let mut args = vec![
-        "particles",
-        "--particles",
-        pattern.to_str().unwrap(),
-        "--radius",
-        "0.01",
-        "--voxel-size",
-        "0.01",
-        "--out",
-        vdb.to_str().unwrap(),
-        "--mesh",
-        ply.to_str().unwrap(),
-        "-q",
-    ];
+    let mut args = particles_at_r(pattern);
+    args.extend_from_slice(&["--out", vdb.to_str().unwrap()]);
+    args.extend_from_slice(&["--mesh", ply.to_str().unwrap(), "-q"]);
     args.extend_from_slice(extra);
     common::assert_ok(&common::activeskin(&args));
+}
+
+/// `activeskin particles` on `pattern` at r = voxel = 0.01, before its outputs.
+fn particles_at_r(pattern: &Path) -> Vec<&str> {
+    let pattern = pattern.to_str().unwrap();
+    let args = ["particles", "--particles", pattern, "--radius", "0.01"];
+    [&args[..], &["--voxel-size", "0.01"]].concat()
 }
 
 /// How far each vertex of frame f's PLY mesh, moved by its velocity over a frame, lands

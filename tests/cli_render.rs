@@ -41,17 +41,13 @@ fn renders_a_sphere_to_exr_layers_and_png() {
     run(&b, &["--size", "320x240"]);
     assert!(std::fs::read(&a).unwrap() == std::fs::read(&b).unwrap());
 
-    let image = exr::prelude::read_all_flat_layers_from_file(&exr_path).unwrap();
-    let layer = &image.layer_data[0];
-    assert_eq!((layer.size.0, layer.size.1), (64, 48));
+    let (size, channels) = common::exr_channels(&exr_path);
+    assert_eq!(size, (64, 48));
     let channel = |name: &str| -> Vec<f32> {
-        let c = layer
-            .channel_data
-            .list
-            .iter()
-            .find(|c| c.name.to_string() == name)
-            .unwrap_or_else(|| panic!("no channel {name}"));
-        c.sample_data.values_as_f32().collect()
+        channels
+            .get(name)
+            .unwrap_or_else(|| panic!("no channel {name}"))
+            .clone()
     };
     let (a, z, nz) = (channel("A"), channel("Z"), channel("N.Z"));
     for name in ["R", "G", "B", "N.X", "N.Y"] {

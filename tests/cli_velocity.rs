@@ -675,17 +675,11 @@ fn exr_renders_carry_the_motion_pass() {
     ];
     assert_ok(&activeskin(&args));
     let read = |frame: i64| {
-        let path = out.path().join(format!("r.{frame:04}.exr"));
-        let image = exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
-        let layer = &image.layer_data[0];
-        let channel = |name: &str| -> Vec<f32> {
-            let c = layer
-                .channel_data
-                .list
-                .iter()
-                .find(|c| c.name.to_string() == name)
-                .unwrap_or_else(|| panic!("no channel {name}"));
-            c.sample_data.values_as_f32().collect()
+        let (_, mut channels) = common::exr_channels(&out.path().join(format!("r.{frame:04}.exr")));
+        let mut channel = |name: &str| {
+            channels
+                .remove(name)
+                .unwrap_or_else(|| panic!("no channel {name}"))
         };
         (channel("A"), channel("forward.u"), channel("forward.v"))
     };

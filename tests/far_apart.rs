@@ -102,34 +102,19 @@ fn particles_a_kilometre_apart_and_a_stray_one() {
     let mut near = ball(Vec3::ZERO, r);
     near.extend(ball(Vec3::splat(1.0), r));
     write_xyz(&dir.path().join("near.xyz"), &near);
-    let cost = |name: &str| {
-        let stats = dir.path().join(format!("{name}.cost.jsonl"));
-        let (out, peak) = common::activeskin_measured(&[
-            "particles",
-            "--particles",
-            dir.path().join(format!("{name}.xyz")).to_str().unwrap(),
-            "--radius",
-            "0.02",
-            "--frames",
-            "1-2",
-            "--stats",
-            stats.to_str().unwrap(),
-        ]);
-        assert_ok(&out);
-        let nodes: Vec<u64> = stats_lines(&stats)
-            .iter()
-            .map(|l| l["band_nodes"].as_u64().unwrap())
-            .collect();
-        (nodes, peak)
+    let input = |name: &str| dir.path().join(format!("{name}.xyz"));
+    let args = |input: &Path| {
+        let args = ["particles", "--particles", input.to_str().unwrap()];
+        let mut args: Vec<String> = args.iter().map(|a| a.to_string()).collect();
+        args.extend(["--radius", "0.02", "--frames", "1-2"].map(String::from));
+        args
     };
-    let ((far_nodes, far_peak), (near_nodes, near_peak)) = (cost("two"), cost("near"));
-    println!(
-        "particles: band nodes {far_nodes:?} against {near_nodes:?}; peak {} MB against {} MB",
-        far_peak / 1_000_000,
-        near_peak / 1_000_000
+    assert_far_costs_as_near(
+        "particles",
+        dir.path(),
+        &args(&input("two")),
+        &args(&input("near")),
     );
-    assert_eq!(far_nodes, near_nodes);
-    assert!(far_peak <= 2 * near_peak, "{far_peak} {near_peak}");
 }
 
 /// `data` with a copy of its leaves and tiles moved by `shift` voxels (a multiple of 8).
@@ -180,16 +165,25 @@ fn level_set_drops_a_kilometre_apart() {
     for f in 1..=2 {
         common::write_grid(&dir.path().join(format!("near.{f:04}.vdb")), &near);
     }
-    let cost = |name: &str| {
-        let stats = dir.path().join(format!("{name}.cost.jsonl"));
+    let args = |name: &str| {
         let target = dir.path().join(format!("{name}.####.vdb"));
-        let (out, peak) = common::activeskin_measured(&[
-            "skin",
-            "--target",
-            target.to_str().unwrap(),
-            "--stats",
-            stats.to_str().unwrap(),
-        ]);
+        vec![
+            "skin".to_string(),
+            "--target".into(),
+            target.to_string_lossy().into(),
+        ]
+    };
+    assert_far_costs_as_near("level sets", dir.path(), &args("drops"), &args("near"));
+}
+
+/// The run `far` (drops far apart) costs what `near` (the same drops close by) does: the
+/// same band nodes on every frame, at most twice the peak memory.
+fn assert_far_costs_as_near(what: &str, dir: &Path, far: &[String], near: &[String]) {
+    let cost = |args: &[String], name: &str| {
+        let stats = dir.join(format!("{name}.cost.jsonl"));
+        let mut args = args.to_vec();
+        args.extend(["--stats".to_string(), stats.to_string_lossy().into()]);
+        let (out, peak) = common::activeskin_measured(&args);
         assert_ok(&out);
         let nodes: Vec<u64> = stats_lines(&stats)
             .iter()
@@ -197,12 +191,12 @@ fn level_set_drops_a_kilometre_apart() {
             .collect();
         (nodes, peak)
     };
-    let ((far_nodes, far_peak), (near_nodes, near_peak)) = (cost("drops"), cost("near"));
+    let ((far_nodes, far_peak), (near_nodes, near_peak)) = (cost(far, "far"), cost(near, "near"));
     println!(
-        "band nodes {far_nodes:?} against {near_nodes:?}; peak {} MB against {} MB",
+        "{what}: band nodes {far_nodes:?} against {near_nodes:?}; peak {} MB against {} MB",
         far_peak / 1_000_000,
         near_peak / 1_000_000
     );
-    assert_eq!(far_nodes, near_nodes);
-    assert!(far_peak <= 2 * near_peak, "{far_peak} {near_peak}");
+    assert_eq!(far_nodes, near_nodes, "{what}");
+    assert!(far_peak <= 2 * near_peak, "{what}: {far_peak} {near_peak}");
 }

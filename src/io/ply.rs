@@ -404,21 +404,16 @@ pub fn write_mesh(mesh: &Mesh, values: VertexValues, path: &Path) -> Result<(), 
         )?;
         write_records(w, &mesh.positions, 4 * floats, |i, p, out| {
             let nrm = mesh.normals[i];
-            let mut record = [p.x, p.y, p.z, nrm.x, nrm.y, nrm.z]
+            let record = [p.x, p.y, p.z, nrm.x, nrm.y, nrm.z]
                 .into_iter()
-                .chain(velocities.into_iter().flat_map(|v| v[i].to_array()));
-            let mut put =
-                |k: usize, x: f32| out[4 * k..4 * k + 4].copy_from_slice(&x.to_le_bytes());
-            let mut k = 0;
-            for x in record.by_ref() {
-                put(k, x);
-                k += 1;
-            }
-            for a in &attributes {
-                for &x in &a.values[i * a.components..(i + 1) * a.components] {
-                    put(k, x);
-                    k += 1;
-                }
+                .chain(velocities.into_iter().flat_map(|v| v[i].to_array()))
+                .chain(attributes.iter().flat_map(|a| {
+                    a.values[i * a.components..(i + 1) * a.components]
+                        .iter()
+                        .copied()
+                }));
+            for (k, x) in record.enumerate() {
+                out[4 * k..4 * k + 4].copy_from_slice(&x.to_le_bytes());
             }
         })?;
         write_records(w, &mesh.triangles, 13, |_, t, out| {

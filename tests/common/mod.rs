@@ -270,3 +270,16 @@ pub fn read_mesh(path: &Path) -> Option<Mesh> {
     }
     Some(mesh)
 }
+
+/// An EXR render's first layer: its size and each channel's samples by name.
+pub fn exr_channels(path: &Path) -> ((usize, usize), std::collections::HashMap<String, Vec<f32>>) {
+    let image = exr::prelude::read_all_flat_layers_from_file(path).unwrap();
+    let layer = &image.layer_data[0];
+    let channels = layer
+        .channel_data
+        .list
+        .iter()
+        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+        .collect();
+    ((layer.size.0, layer.size.1), channels)
+}

@@ -98,12 +98,21 @@ impl Layout {
     /// The grid `wanted` names: a grid of that name (the first of several), of that
     /// printed unique name (`a[1]`, `[0]`), else the grid at that index in file order.
     fn find(&self, wanted: &str) -> Option<&(String, String)> {
-        self.grids
-            .iter()
-            .find(|(g, _)| g == wanted)
-            .or_else(|| self.grids.iter().find(|(g, _)| printable_name(g) == wanted))
-            .or_else(|| self.grids.iter().find(|(g, _)| base_name(g) == wanted))
-            .or_else(|| wanted.parse::<usize>().ok().and_then(|i| self.grids.get(i)))
+        self.position(wanted).map(|i| &self.grids[i])
+    }
+
+    /// [`Layout::find`]'s index in `grids`.
+    fn position(&self, wanted: &str) -> Option<usize> {
+        let by = |matches: &dyn Fn(&str) -> bool| self.grids.iter().position(|(g, _)| matches(g));
+        by(&|g| g == wanted)
+            .or_else(|| by(&|g| printable_name(g) == wanted))
+            .or_else(|| by(&|g| base_name(g) == wanted))
+            .or_else(|| {
+                wanted
+                    .parse::<usize>()
+                    .ok()
+                    .filter(|&i| i < self.grids.len())
+            })
     }
 }
 
@@ -111,9 +120,8 @@ impl Layout {
     /// The most memory reading a grid of `name` ([`Layout::find`]), or any grid whose
     /// type starts with `kind` when `None`, will take, as the writer recorded it.
     pub fn recorded_memory(&self, name: Option<&str>, kind: &str) -> Option<u64> {
-        let at = |g: &(String, String)| self.grids.iter().position(|x| std::ptr::eq(x, g));
         let chosen: Vec<usize> = match name {
-            Some(n) => self.find(n).and_then(at).into_iter().collect(),
+            Some(n) => self.position(n).into_iter().collect(),
             None => (0..self.grids.len())
                 .filter(|&i| self.grids[i].1.starts_with(kind))
                 .collect(),
