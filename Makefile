@@ -18,7 +18,7 @@ demo: build
 	@mkdir -p $(OUT)
 	./target/release/activeskin demo --out $(OUT)
 	./target/release/activeskin info $(OUT)/fig7/fig7.0048.vdb
-	@echo "demo: in ./$(OUT): fig7/ (six blobs to two spheres), orbit/ (a moving target), splash/ (a drop of particles): VDB, OBJ, EXR, stats"
+	@echo "demo: in ./$(OUT): fig7/ (six blobs to two spheres), orbit/ (a moving target), splash/ (a drop of particles): VDB, OBJ, EXR, a USD shot, stats"
 
 bench: deps
 	$(CARGO) bench --bench step

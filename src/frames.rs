@@ -21,7 +21,7 @@ pub use inputs::{
     auto_warmup, AttributeChoice, AttributeSource, InputFrames, ParticleFrame, ParticleInput,
     WARMUP_AUTO_FACTOR,
 };
-pub use outputs::{OutputSpec, Outputs, Progress, Report, SurfaceValues};
+pub use outputs::{OutputSpec, Outputs, Progress, Report, SurfaceValues, UsdSpec};
 pub use particle_run::ParticleRun;
 #[cfg(feature = "vdb")]
 pub use targets::{
@@ -222,6 +222,7 @@ pub fn run<'t>(
     let mut restored: Option<GridData> = None;
     skin.limit_substeps(Some(crate::skin::MAX_SUBSTEPS));
     outputs.frame_camera(skin.mesh());
+    outputs.set_frame_rate(fps);
     // Without OpenVDB there is no --out to resume from (Outputs refuses it).
     #[cfg(feature = "vdb")]
     if outputs.resume() {
@@ -256,7 +257,7 @@ pub fn run<'t>(
     let (mesh_velocities, grid_velocities, render_motion) = outputs.wants_velocities();
     let velocities = (mesh_velocities, grid_velocities);
     let any_velocities = mesh_velocities || grid_velocities || render_motion;
-    let attributes = outputs.mesh_holds_values();
+    let attributes = outputs.vertices_hold_values();
     let mut settled_before = restored.filter(|_| any_velocities);
     for frame in start..=last {
         let started = Instant::now();

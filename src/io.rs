@@ -11,6 +11,7 @@ pub mod ply;
 pub mod png;
 mod scalar;
 pub mod text;
+pub mod usd;
 #[cfg(feature = "vdb")]
 pub mod vdb;
 pub mod vtk;

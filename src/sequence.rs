@@ -39,6 +39,15 @@ impl FramePattern {
         }
     }
 
+    /// Files `prefix`, the frame number padded to `width` digits, `suffix`.
+    pub fn numbered(prefix: &str, width: usize, suffix: &str) -> Self {
+        FramePattern {
+            prefix: prefix.to_owned(),
+            suffix: suffix.to_owned(),
+            width: width.clamp(1, MAX_WIDTH),
+        }
+    }
+
     /// Whether this is one file held for every frame.
     pub fn is_held(&self) -> bool {
         self.width == 0

@@ -23,7 +23,12 @@ fn demo_writes_its_sequences() {
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect();
-        assert_eq!(names.len(), 3 * 48 + 1, "{name}: {names:?}");
+        // VDB, OBJ and EXR a frame, the stats, and the USD shot: its stage and the
+        // folder of its 48 frames' layers and manifest.
+        assert_eq!(names.len(), 3 * 48 + 3, "{name}: {names:?}");
+        assert!(folder.join(format!("{name}.usda")).is_file(), "{name}");
+        let layers = std::fs::read_dir(folder.join(name)).unwrap().count();
+        assert_eq!(layers, 48 + 1, "{name}");
         let grid =
             activeskin::vdb::Grid::read(&folder.join(format!("{name}.0048.vdb")), None).unwrap();
         assert_eq!(grid.check_level_set().unwrap(), None, "{name}");

@@ -59,6 +59,7 @@ fn run_library(into: &Path) {
         stats_fields: Default::default(),
         reads: vec![input.pattern.clone()],
         velocities: true,
+        usd: None,
     };
     let mut outputs = Outputs::new(&spec, (1, 4)).unwrap();
     let run = ParticleRun {

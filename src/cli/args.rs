@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use activeskin::frames::OutputSpec;
+use activeskin::frames::{OutputSpec, UsdSpec};
 use activeskin::grid::Precision;
 use activeskin::skin::{SkinError, SkinParams, SpeedParams};
 
@@ -147,7 +147,19 @@ pub struct OutputArgs {
     /// Render size, WIDTHxHEIGHT.
     #[arg(long, default_value = "640x360")]
     pub render_size: String,
-    /// The scene's up axis for renders: y (Houdini, Maya) or z (Blender).
+    /// A USD shot of the meshes (`.usda`): one time-sampled mesh over the frames, each
+    /// frame a layer in a folder beside it (value clips), with normals, velocities and
+    /// the particles' attributes (vertex primvars).
+    #[arg(long)]
+    pub usd: Option<PathBuf>,
+    /// World units in meters, for the USD stage (`metersPerUnit`).
+    #[arg(long, default_value_t = 1.0)]
+    pub meters_per_unit: f64,
+    /// Every frame of the shot, when this run writes only some of them: the USD stage
+    /// lists them all (farm sets it on its chunks).
+    #[arg(long, value_name = "FIRST-LAST", hide = true)]
+    pub shot_frames: Option<String>,
+    /// The scene's up axis for renders and the USD stage: y (Houdini, Maya) or z (Blender).
     #[arg(long, value_enum, default_value_t = UpArg::Y)]
     pub up: UpArg,
     /// One JSON object per frame (frame, time, sub-steps, band nodes, blocks, area,
@@ -186,7 +198,23 @@ impl OutputArgs {
             stats_fields: Default::default(),
             reads: Vec::new(),
             velocities: self.velocities,
+            usd: self.usd_spec()?,
         })
+    }
+
+    fn usd_spec(&self) -> anyhow::Result<Option<UsdSpec>> {
+        let shot = match self.shot_frames.as_deref() {
+            Some(spec) => match activeskin::sequence::parse_range(spec) {
+                Some(range) => Some(range),
+                None => usage!("--shot-frames must be FIRST-LAST, got '{spec}'"),
+            },
+            None => None,
+        };
+        Ok(self.usd.as_ref().map(|stage| UsdSpec {
+            stage: stage.clone(),
+            meters_per_unit: self.meters_per_unit,
+            shot,
+        }))
     }
 }
 

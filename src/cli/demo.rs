@@ -43,6 +43,10 @@ fn outputs(dir: &Path, name: &str, quiet: bool) -> OutputArgs {
         resume: false,
         quiet,
         velocities: true,
+        // The same meshes as one shot, for Houdini, Blender and Maya to open.
+        usd: Some(dir.join(format!("{name}/{name}.usda"))),
+        meters_per_unit: 1.0,
+        shot_frames: None,
     }
 }
 

@@ -71,6 +71,10 @@ pub fn run(args: &FarmArgs) -> anyhow::Result<()> {
     let chunks = split(shot.range, args.chunks);
     let mut command = chunk_command(&args.command)?;
     command.extend(shot.fixed.iter().map(|w| quote(w)));
+    if shot.outputs.usd.is_some() {
+        // Each chunk's USD stage lists the whole shot, the same file from every chunk.
+        command.extend(["--shot-frames".into(), format!("{first}-{last}")]);
+    }
     let exe = std::env::current_exe().context("cannot tell where activeskin is")?;
     let here = std::env::current_dir().context("cannot read the current folder")?;
     let script = batch_script(
@@ -144,7 +148,7 @@ fn split((first, last): (i64, i64), k: i64) -> Vec<(i64, i64)> {
 }
 
 /// The inner command for a chunk, as shell words: without the options each chunk sets
-/// itself (`--frames`, `--resume`), its stats file named after the chunk's frames (the
+/// itself (`--frames`, `--resume`, `--shot-frames`), its stats file named after the chunk's frames (the
 /// chunks run at once, each writes its own). `--render` is refused: a run's camera frames
 /// its own first skin, so chunks would frame differently.
 fn chunk_command(command: &[String]) -> anyhow::Result<Vec<String>> {
@@ -162,7 +166,7 @@ fn chunk_command(command: &[String]) -> anyhow::Result<Vec<String>> {
                 .unwrap_or_default()
         };
         match option {
-            "--frames" => {
+            "--frames" | "--shot-frames" => {
                 value();
             }
             "--resume" => {}
@@ -288,7 +292,7 @@ mod tests {
     fn the_chunk_sets_its_own_frames_resume_and_stats() {
         let words = |s: &str| s.split(' ').map(String::from).collect::<Vec<_>>();
         let given =
-            "skin --frames 1-9 --target a.####.vdb --resume --frames=3-4 -q --stats s/st.jsonl";
+            "skin --frames 1-9 --target a.####.vdb --resume --frames=3-4 -q --stats s/st.jsonl --shot-frames 1-9";
         let expected =
             r#"skin --target a.####.vdb -q --stats s/st."${CHUNKS[$SLURM_ARRAY_TASK_ID]}".jsonl"#;
         assert_eq!(chunk_command(&words(given)).unwrap(), words(expected));

@@ -121,8 +121,8 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
         ..args.outputs.spec()?
     };
     let mut outputs = Outputs::new(&spec, (write_from, input.range.1))?;
-    if particles.attributes != AttributeChoice::None && !outputs.mesh_holds_values() {
-        usage!("--attribute writes PLY vertex properties: give a --mesh pattern ending in .ply");
+    if particles.attributes != AttributeChoice::None && !outputs.vertices_hold_values() {
+        usage!("--attribute writes PLY vertex properties or USD primvars: give a --mesh pattern ending in .ply, or --usd");
     }
     let quiet = args.outputs.quiet;
     let run = ParticleRun {

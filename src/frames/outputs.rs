@@ -10,6 +10,7 @@ use hashbrown::HashMap;
 
 use super::FrameError;
 use crate::grid::Aabb;
+use crate::io::usd;
 use crate::render::{self, Up, View};
 use crate::sequence::FramePattern;
 use crate::skin::velocity::SurfaceMotion;
@@ -74,8 +75,20 @@ pub struct OutputSpec {
     /// The files the run reads: no output may overwrite one of them.
     pub reads: Vec<FramePattern>,
     /// The surface's velocity, for motion blur, in the outputs that hold one: per vertex
-    /// in PLY meshes, as the vector grid `v` beside the level set in `--out` VDBs.
+    /// in PLY meshes and USD shots, as the vector grid `v` beside the level set in `--out`
+    /// VDBs.
     pub velocities: bool,
+    /// A USD shot of the meshes.
+    pub usd: Option<UsdSpec>,
+}
+
+/// A USD shot (`--usd`): the stage, its units, and the shot's frames when this run
+/// writes only some of them (a farm chunk; the stage lists them all).
+#[derive(Debug, Clone)]
+pub struct UsdSpec {
+    pub stage: PathBuf,
+    pub meters_per_unit: f64,
+    pub shot: Option<(i64, i64)>,
 }
 
 /// What a frame's outputs write beside the surface: its velocity over the frame (world
@@ -104,6 +117,11 @@ pub struct Outputs {
     stats_fields: serde_json::Map<String, serde_json::Value>,
     progress: Option<Progress>,
     velocities: bool,
+    /// The USD shot and whether this run has written its stage yet (with its first frame,
+    /// once the attributes it declares are known).
+    usd: Option<(UsdSpec, (i64, i64), bool)>,
+    /// Frames a second, for the USD stage's time codes.
+    fps: f64,
 }
 
 impl Outputs {
@@ -120,8 +138,16 @@ impl Outputs {
         }
         let (out, mesh) = (spec.out.clone(), spec.mesh.clone());
         let render = spec.render.clone().map(|(p, size)| (p, size, None));
-        if out.is_none() && mesh.is_none() && render.is_none() && spec.stats.is_none() {
-            return usage("nothing to write: give --out, --mesh, --render or --stats".into());
+        let usd = spec
+            .usd
+            .as_ref()
+            .map(|u| shot_of(u, (first, last)))
+            .transpose()?;
+        let nothing = out.is_none() && mesh.is_none() && render.is_none() && usd.is_none();
+        if nothing && spec.stats.is_none() {
+            return usage(
+                "nothing to write: give --out, --mesh, --usd, --render or --stats".into(),
+            );
         }
         if cfg!(not(feature = "vdb")) && out.is_some() {
             return usage(
@@ -134,7 +160,9 @@ impl Outputs {
             );
         }
         check_apart(spec, (first, last))?;
-        for pattern in out.iter().chain(&mesh).chain(render.iter().map(|r| &r.0)) {
+        let usd_frames = usd.as_ref().map(|(_, shot)| shot.frame_pattern());
+        let patterns = out.iter().chain(&mesh).chain(render.iter().map(|r| &r.0));
+        for pattern in patterns.chain(&usd_frames) {
             let folder = pattern.folder();
             std::fs::create_dir_all(&folder).map_err(|e| {
                 FrameError::Data(format!(
@@ -168,7 +196,14 @@ impl Outputs {
             stats_fields: spec.stats_fields.clone(),
             progress: spec.progress.clone(),
             velocities: spec.velocities,
+            usd: usd.map(|(u, shot)| (u, shot.frames, false)),
+            fps: 24.0,
         })
+    }
+
+    /// Frames a second of the run (the USD stage's time codes a second).
+    pub fn set_frame_rate(&mut self, fps: f64) {
+        self.fps = fps;
     }
 
     /// Frames the renders' camera on `mesh`, the skin a run starts from (before a resume
@@ -194,10 +229,10 @@ impl Outputs {
     }
 
     /// Where a frame's surface velocities are written, as (mesh, grid, render): asked
-    /// for, and the mesh's format holds them (PLY), skin VDBs are written, renders are
+    /// for, and the meshes hold them (PLY, USD), skin VDBs are written, renders are
     /// EXR (a motion pass).
     pub fn wants_velocities(&self) -> (bool, bool, bool) {
-        let mesh = self.mesh_holds_values();
+        let mesh = self.vertices_hold_values();
         let exr = self
             .render
             .as_ref()
@@ -209,11 +244,13 @@ impl Outputs {
         )
     }
 
-    /// Whether meshes are written in a format that holds values per vertex (PLY).
-    pub fn mesh_holds_values(&self) -> bool {
-        self.mesh
-            .as_ref()
-            .is_some_and(|m| crate::io::mesh::holds_values(&m.path(0)))
+    /// Whether meshes are written in a format that holds values per vertex (PLY, USD).
+    pub fn vertices_hold_values(&self) -> bool {
+        self.usd.is_some()
+            || self
+                .mesh
+                .as_ref()
+                .is_some_and(|m| crate::io::mesh::holds_values(&m.path(0)))
     }
 
     /// The skin VDB of a frame, if --out was given and the file exists.
@@ -233,12 +270,26 @@ impl Outputs {
         stats: &StepStats,
         started: Instant,
     ) -> Result<(), FrameError> {
+        let values = crate::io::mesh::VertexValues {
+            velocities: velocities.mesh.as_deref(),
+            attributes: &velocities.attributes,
+        };
         if let Some(pattern) = &self.mesh {
-            let values = crate::io::mesh::VertexValues {
-                velocities: velocities.mesh.as_deref(),
-                attributes: &velocities.attributes,
-            };
             crate::io::mesh::write_with_values(skin.mesh(), values, &pattern.path(frame))?;
+        }
+        if let Some((spec, frames, staged)) = &mut self.usd {
+            let shot = usd::Shot::new(
+                &spec.stage,
+                *frames,
+                self.fps,
+                self.up,
+                spec.meters_per_unit,
+            );
+            if !*staged {
+                shot.write_stage(&usd::Carried::of(&values))?;
+                *staged = true;
+            }
+            shot.write_frame(frame, skin.mesh(), values)?;
         }
         if let Some((pattern, size, camera)) = &mut self.render {
             let data = level_set;
@@ -367,6 +418,50 @@ impl Outputs {
     }
 }
 
+/// The USD shot asked for, checked, over the frames `written` unless it says whose.
+fn shot_of(spec: &UsdSpec, written: (i64, i64)) -> Result<(UsdSpec, usd::Shot), FrameError> {
+    let usage = |m: String| Err(FrameError::Usage(m));
+    let stage = &spec.stage;
+    let name = stage.file_name().map(|n| n.to_string_lossy().into_owned());
+    if crate::io::has_extension(stage, &["usdc", "usdz"]) {
+        return usage(format!(
+            "--usd '{}': activeskin writes USD as text, name the stage .usda or .usd (Pixar's usdcat turns it into .usdc)",
+            stage.display()
+        ));
+    }
+    if !crate::io::has_extension(stage, usd::EXTENSIONS) {
+        return usage(format!(
+            "--usd '{}': a USD stage must end in .usda or .usd",
+            stage.display()
+        ));
+    }
+    if name.is_some_and(|n| n.contains(['@', '"', '#', '%', '$', '\\'])) {
+        return usage(format!(
+            "--usd '{}': the stage's name cannot hold @ \" # % $ or \\ (its frames' layers are named after it)",
+            stage.display()
+        ));
+    }
+    if !(spec.meters_per_unit.is_finite() && spec.meters_per_unit > 0.0) {
+        return usage(format!(
+            "--meters-per-unit must be a positive number, got {}",
+            spec.meters_per_unit
+        ));
+    }
+    let frames = spec.shot.unwrap_or(written);
+    if frames.0 > written.0 || frames.1 < written.1 {
+        return usage(format!(
+            "--shot-frames {}-{} must hold the frames written, {}-{}",
+            frames.0, frames.1, written.0, written.1
+        ));
+    }
+    let spec = UsdSpec {
+        shot: Some(frames),
+        ..spec.clone()
+    };
+    let shot = usd::Shot::new(stage, frames, 24.0, Up::Y, spec.meters_per_unit);
+    Ok((spec, shot))
+}
+
 /// The box a render's camera frames around a skin's `bounds`.
 fn framing(bounds: Aabb) -> Aabb {
     bounds.padded(0.25 * (bounds.max - bounds.min).max_element())
@@ -399,7 +494,15 @@ fn check_apart(spec: &OutputSpec, (first, last): (i64, i64)) -> Result<(), Frame
         .into_iter()
         .chain([("--render", spec.render.as_ref().map(|r| &r.0))])
         .filter_map(|(flag, p)| p.map(|p| (flag, paths(p))))
-        .chain(spec.stats.iter().map(|p| ("--stats", vec![p.clone()])));
+        .chain(spec.stats.iter().map(|p| ("--stats", vec![p.clone()])))
+        .chain(spec.usd.iter().flat_map(|u| {
+            let shot = usd::Shot::new(&u.stage, (first, last), 24.0, Up::Y, 1.0);
+            let frames = paths(&shot.frame_pattern());
+            [
+                ("--usd", vec![u.stage.clone(), shot.manifest_path()]),
+                ("--usd", frames),
+            ]
+        }));
     for (flag, paths) in outputs {
         for path in paths {
             // Lexically too: `new/../input` names the input once `new` is created.
