@@ -2,6 +2,7 @@
 //! ratios (these machines are too noisy for absolute times to compare across runs).
 
 mod formats;
+mod outputs;
 mod particles;
 mod sph;
 
@@ -82,6 +83,11 @@ pub struct BenchArgs {
     /// or ACTIVESKIN_FORMATS_CACHE), against our PLY reader.
     #[arg(long, conflicts_with = "particles")]
     formats: bool,
+    /// Only what the render-ready outputs cost at 1 M particles in motion: PLY meshes
+    /// with velocities and attributes against without, and the USD frame layer's writer
+    /// against the OBJ writer.
+    #[arg(long, conflicts_with_all = ["particles", "formats"])]
+    outputs: bool,
     /// Seconds each side of the morph-to-accuracy race may run before it is called.
     #[arg(long, default_value_t = 30.0)]
     race_cap: f64,
@@ -157,6 +163,8 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let mut lines = Vec::new();
     if args.formats {
         formats::run(&mut lines, &mut report)?;
+    } else if args.outputs {
+        outputs::run(&mut lines, &mut report)?;
     } else if !args.particles_only {
         solver_races(args, &mut lines, &mut report)?;
     }

@@ -160,12 +160,19 @@ pub struct AttributeSource {
 impl AttributeSource {
     /// Each attribute at `points`, under its own name.
     pub fn at(&self, points: &[Vec3]) -> Vec<Attribute> {
+        let fields: Vec<(&[f32], usize)> = self
+            .attributes
+            .iter()
+            .map(|a| (a.values.as_slice(), a.components))
+            .collect();
+        let values = self.density.interpolate(points, &fields);
         self.attributes
             .iter()
-            .map(|a| Attribute {
+            .zip(values)
+            .map(|(a, values)| Attribute {
                 name: a.name.clone(),
                 components: a.components,
-                values: self.density.interpolate(points, &a.values, a.components),
+                values,
             })
             .collect()
     }

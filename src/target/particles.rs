@@ -368,40 +368,63 @@ impl Density {
     }
 }
 
-/// The particles' velocity at a point: their mean weighted by their kernels (Shepard),
-/// the density's own, each extended by its gradient when fitted; zero where no particle
-/// reaches, or when the particles carry no velocity.
 impl Density {
-    /// A per-particle quantity (`components` values a particle, in input order) at each
+    /// Per-particle quantities (`components` values a particle, in input order) at each
     /// of `points`, from the particles the density's kernel reaches there, weighted as
     /// the density sums them (each particle's kernel times its volume). Linear least
     /// squares about their weighted centroid, so that a linear field is kept where the
     /// neighbourhood is one-sided (at the surface, where a weighted mean, Shepard's,
     /// leans inward by half a particle radius), limited to the values around (a flag
     /// stays within 0–1) and Shepard's where the neighbours span no volume (a lone
-    /// droplet, a sheet's normal). 0 where no particle reaches.
-    pub fn interpolate(&self, points: &[Vec3], values: &[f32], components: usize) -> Vec<f32> {
-        assert_eq!(
-            values.len(),
-            self.order.len() * components,
-            "a value per particle"
-        );
-        let mut out = vec![0.0f32; points.len() * components];
-        out.par_chunks_mut(components)
-            .zip(points.par_iter())
-            .for_each(|(out, &p)| self.interpolate_at(p, values, out));
-        out
+    /// droplet, a sheet's normal). 0 where no particle reaches. Each point's
+    /// neighbourhood is walked once for all the `fields`, `(values, components)`.
+    pub fn interpolate(&self, points: &[Vec3], fields: &[(&[f32], usize)]) -> Vec<Vec<f32>> {
+        for &(values, components) in fields {
+            assert_eq!(
+                values.len(),
+                self.order.len() * components,
+                "a value per particle"
+            );
+        }
+        let width: usize = fields.iter().map(|f| f.1).sum();
+        let mut out = vec![0.0f32; points.len() * width];
+        if width > 0 {
+            out.par_chunks_mut(width)
+                .zip(points.par_iter())
+                .for_each_init(Vec::new, |near, (out, &p)| {
+                    self.interpolate_at(p, fields, near, out)
+                });
+        }
+        // Point-major rows split into one array per field.
+        let mut offset = 0;
+        fields
+            .iter()
+            .map(|&(_, c)| {
+                let field: Vec<f32> = out
+                    .par_chunks(width)
+                    .flat_map_iter(|row| row[offset..offset + c].iter().copied())
+                    .collect();
+                offset += c;
+                field
+            })
+            .collect()
     }
 
-    fn interpolate_at(&self, p: Vec3, values: &[f32], out: &mut [f32]) {
+    /// [`Density::interpolate`] at `p`, into `out` (the fields' components side by side);
+    /// `near` is scratch for the neighbours (index, weight).
+    fn interpolate_at(
+        &self,
+        p: Vec3,
+        fields: &[(&[f32], usize)],
+        near: &mut Vec<(u32, f32)>,
+        out: &mut [f32],
+    ) {
         use glam::{DMat3, DVec3};
-        let c = out.len();
+        near.clear();
         let cell = (p / self.h).floor().as_ivec3();
-        // Moments about p (small offsets: no cancellation), per component.
-        let (mut w_sum, mut x_sum, mut xx) = (0.0f64, DVec3::ZERO, DMat3::ZERO);
-        let mut a_sum = [0.0f64; 3];
-        let mut xa = [DVec3::ZERO; 3];
-        let mut range = [(f32::INFINITY, f32::NEG_INFINITY); 3];
+        // Moments about p (small offsets: no cancellation).
+        let (mut w_sum, mut x_sum) = (0.0f64, DVec3::ZERO);
+        let mut xx = [0.0f64; 6];
         for d in AROUND {
             let Some(&(start, end)) = self.cells.get(&(cell + d)) else {
                 continue;
@@ -412,25 +435,28 @@ impl Density {
                 if s <= 0.0 {
                     continue;
                 }
-                let w = f64::from(self.volumes[i] * s * s * s);
+                let w = self.volumes[i] * s * s * s;
                 let x = (q - p).as_dvec3();
-                w_sum += w;
-                x_sum += w * x;
-                xx += DMat3::from_cols(x * x.x, x * x.y, x * x.z) * w;
-                let at = self.order[i] as usize * c;
-                for k in 0..c {
-                    let a = values[at + k];
-                    a_sum[k] += w * f64::from(a);
-                    xa[k] += w * f64::from(a) * x;
-                    range[k] = (range[k].0.min(a), range[k].1.max(a));
-                }
+                let wd = f64::from(w);
+                w_sum += wd;
+                x_sum += wd * x;
+                // The symmetric second moment, its six entries.
+                let wx = wd * x;
+                xx[0] += wx.x * x.x;
+                xx[1] += wx.x * x.y;
+                xx[2] += wx.x * x.z;
+                xx[3] += wx.y * x.y;
+                xx[4] += wx.y * x.z;
+                xx[5] += wx.z * x.z;
+                near.push((i as u32, w));
             }
         }
         if w_sum <= 0.0 {
             return;
         }
         let centroid = x_sum / w_sum;
-        let spread = xx * (1.0 / w_sum)
+        let [a, b, c, d, e, f] = xx.map(|m| m / w_sum);
+        let spread = DMat3::from_cols_array(&[a, b, c, b, d, e, c, e, f])
             - DMat3::from_cols(
                 centroid * centroid.x,
                 centroid * centroid.y,
@@ -440,17 +466,33 @@ impl Density {
         // regularized by a tenth of the (largest) support, squared.
         let eps = (0.1 * f64::from(self.h)).powi(2);
         let inverse = (spread + DMat3::IDENTITY * eps).inverse();
-        for k in 0..c {
-            let mean = a_sum[k] / w_sum;
-            let covariance = xa[k] / w_sum - centroid * mean;
-            let gradient = inverse * covariance;
-            // p is the origin of the offsets: p − centroid = −centroid.
-            let value = mean - gradient.dot(centroid);
-            out[k] = (value as f32).clamp(range[k].0, range[k].1);
+        let mut column = 0;
+        for &(values, components) in fields {
+            for k in 0..components {
+                let (mut a_sum, mut xa) = (0.0f64, DVec3::ZERO);
+                let mut range = (f32::INFINITY, f32::NEG_INFINITY);
+                for &(i, w) in near.iter() {
+                    let a = values[self.order[i as usize] as usize * components + k];
+                    let wa = f64::from(w) * f64::from(a);
+                    a_sum += wa;
+                    xa += wa * (self.particles[i as usize].0 - p).as_dvec3();
+                    range = (range.0.min(a), range.1.max(a));
+                }
+                let mean = a_sum / w_sum;
+                let covariance = xa / w_sum - centroid * mean;
+                let gradient = inverse * covariance;
+                // p is the origin of the offsets: p − centroid = −centroid.
+                let value = mean - gradient.dot(centroid);
+                out[column] = (value as f32).clamp(range.0, range.1);
+                column += 1;
+            }
         }
     }
 }
 
+/// The particles' velocity at a point: their mean weighted by their kernels (Shepard),
+/// the density's own, each extended by its gradient when fitted; zero where no particle
+/// reaches, or when the particles carry no velocity.
 impl Flow for Density {
     fn velocity(&self, p: Vec3) -> Vec3 {
         if self.velocities.is_empty() {

@@ -23,7 +23,7 @@ const SPLASHSURF_VERSION: &str = "0.14.1";
 
 /// Particles of radius `r` on a lattice of spacing 2r filling a ball of `n` particles'
 /// volume around (1, 1, 1).
-fn lattice_ball(n: usize, r: f32) -> (Vec<Vec3>, f32) {
+pub(super) fn lattice_ball(n: usize, r: f32) -> (Vec<Vec3>, f32) {
     let spacing = 2.0 * r;
     let radius = spacing * (3.0 * n as f32 / (4.0 * std::f32::consts::PI)).cbrt();
     let k = (radius / spacing).ceil() as i32;
