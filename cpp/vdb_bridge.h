@@ -36,6 +36,7 @@ struct LevelSetMeasures;
 struct MorphTiming;
 struct FileMetadata;
 struct PointBuffers;
+struct PointAttributes;
 struct VectorBuffers;
 
 class FloatGrid {
@@ -96,7 +97,7 @@ uint64_t mem_usage(const FloatGrid &grid);
 PointBuffers read_points(rust::Str path, rust::Str name);
 void write_points(rust::Str path, rust::Slice<const float> positions,
                   rust::Slice<const float> radii, rust::Slice<const float> velocities,
-                  double voxel_size, rust::Str name);
+                  const PointAttributes &attributes, double voxel_size, rust::Str name);
 void write_points_beside(rust::Str path, rust::Slice<const float> positions,
                          double voxel_size, rust::Str name, const FloatGrid &beside);
 std::unique_ptr<FloatGrid> mesh_to_level_set(rust::Slice<const float> points,

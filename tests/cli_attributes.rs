@@ -253,3 +253,77 @@ fn a_missing_attribute_or_a_mesh_that_cannot_hold_it_is_one_line() {
     );
     assert_fails(&run, 2, "--attribute", "OBJ");
 }
+
+/// Houdini's VDB points: `id` and every float or vec3s attribute read (in the grid's own
+/// point order, each particle keeping its id and values), then carried onto the mesh.
+#[cfg(feature = "vdb")]
+#[test]
+fn attributes_and_ids_from_vdb_points() {
+    let data = scratch();
+    let mut written = Vec::new();
+    for frame in 1..=2 {
+        let positions = ball(Vec3::new(0.04 * frame as f32, 0.0, 0.0));
+        let n = positions.len();
+        let particles = Particles {
+            ids: Some((0..n as i64).map(|i| 1000 + i).collect()),
+            attributes: vec![
+                Attribute {
+                    name: "temperature".into(),
+                    components: 1,
+                    values: positions.iter().map(|&p| temperature(p)).collect(),
+                },
+                Attribute {
+                    name: "vorticity".into(),
+                    components: 3,
+                    values: positions
+                        .iter()
+                        .flat_map(|&p| vorticity(p).to_array())
+                        .collect(),
+                },
+            ],
+            positions,
+            ..Particles::default()
+        };
+        let path = data.path().join(format!("p.{frame:04}.vdb"));
+        activeskin::vdb::write_particles(&path, &particles, 0.04, "points").unwrap();
+        written.push(particles);
+    }
+    // Read back: the grid's order is its own, each particle's id names it.
+    let read_back = read(&data.path().join("p.0001.vdb")).unwrap();
+    let original = &written[0];
+    let ids = read_back.ids.as_ref().expect("ids");
+    assert_eq!(names(&read_back), ["temperature", "vorticity"]);
+    let t = attribute(&read_back, "temperature");
+    let w = attribute(&read_back, "vorticity");
+    assert_eq!(w.components, 3);
+    for (i, &id) in ids.iter().enumerate() {
+        let k = (id - 1000) as usize;
+        // 16-bit fixed-point positions within their voxel.
+        assert!((read_back.positions[i] - original.positions[k]).length() < 0.04 / 30_000.0);
+        assert_eq!(t.values[i], original.attributes[0].values[k]);
+        assert_eq!(
+            w.values[3 * i..3 * i + 3],
+            original.attributes[1].values[3 * k..3 * k + 3]
+        );
+    }
+    let out = scratch();
+    let mesh = out.path().join("m.####.ply");
+    let input = data.path().join("p.####.vdb");
+    assert_ok(&particles(
+        input.to_str().unwrap(),
+        &mesh,
+        &["--attribute", "all"],
+    ));
+    let mesh = mesh_values(&out.path().join("m.0002.ply"));
+    let t = attribute(&mesh, "temperature");
+    let mean = mesh
+        .positions
+        .iter()
+        .zip(&t.values)
+        .map(|(&p, &v)| (v - temperature(p)).abs())
+        .sum::<f32>()
+        / t.values.len() as f32;
+    assert!(mean < 0.35, "temperature off by {mean} K");
+    let z = attribute(&mesh, "vorticity_z");
+    assert!(z.values.iter().all(|&w| (w - 2.0).abs() < 1e-4));
+}

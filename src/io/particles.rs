@@ -363,8 +363,27 @@ fn read_vdb(path: &Path) -> Result<Particles, crate::vdb::VdbError> {
                 .map(|v| Vec3::new(v[0], v[1], v[2]))
                 .collect()
         }),
-        ids: None,
-        attributes: Vec::new(),
+        ids: (!points.attributes.ids.is_empty()).then(|| points.attributes.ids.clone()),
+        attributes: {
+            let extra = points.attributes;
+            let n = points.positions.len() / 3;
+            let mut at = 0;
+            extra
+                .names
+                .into_iter()
+                .zip(extra.components)
+                .map(|(name, components)| {
+                    let count = components as usize * n;
+                    let values = extra.values[at..at + count].to_vec();
+                    at += count;
+                    crate::particles::Attribute {
+                        name,
+                        components: components as usize,
+                        values,
+                    }
+                })
+                .collect()
+        },
     })
 }
 

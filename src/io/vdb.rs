@@ -420,8 +420,9 @@ fn verify_written(tmp: &Path) -> Result<(), WriteFault> {
         .map_err(|reason| WriteFault::Incomplete { length, reason })
 }
 
-/// Positions (world space) and `pscale` radii of a point data grid, as Houdini's VDB from
-/// Points writes them: the grid `name`, or the first point data grid of the file.
+/// Positions (world space), `pscale` radii, `v`, `id` and the other attributes of a point
+/// data grid, as Houdini's VDB from Points writes them: the grid `name`, or the first
+/// point data grid of the file.
 pub fn read_points(path: &Path, name: Option<&str>) -> Result<ffi::bridge::PointBuffers, VdbError> {
     let layout = check_vdb_file(path)?;
     check_memory(path, &layout, name, "Tree_ptdataidx")?;
@@ -450,14 +451,78 @@ pub fn write_points_with_velocities(
     voxel_size: f64,
     name: &str,
 ) -> Result<(), VdbError> {
-    let flat: Vec<f32> = positions.iter().flatten().copied().collect();
     let velocities = velocities.map_or(&[][..], |v| v.as_flattened());
+    let none = ffi::bridge::PointAttributes::default();
+    write_point_grid(
+        path,
+        positions,
+        (radii, velocities),
+        &none,
+        voxel_size,
+        name,
+    )
+}
+
+/// Particles as one point data grid `name`, as Houdini's VDB from Points writes them:
+/// `pscale`, `v`, `id` (int64) and each attribute (float or vec3s) when they have them.
+pub fn write_particles(
+    path: &Path,
+    particles: &crate::particles::Particles,
+    voxel_size: f64,
+    name: &str,
+) -> Result<(), VdbError> {
+    let positions: Vec<[f32; 3]> = particles.positions.iter().map(|p| p.to_array()).collect();
+    let velocities: Vec<f32> = particles
+        .velocities
+        .iter()
+        .flatten()
+        .flat_map(|v| v.to_array())
+        .collect();
+    let attributes = ffi::bridge::PointAttributes {
+        ids: particles.ids.clone().unwrap_or_default(),
+        names: particles
+            .attributes
+            .iter()
+            .map(|a| a.name.clone())
+            .collect(),
+        components: particles
+            .attributes
+            .iter()
+            .map(|a| a.components as u32)
+            .collect(),
+        values: particles
+            .attributes
+            .iter()
+            .flat_map(|a| a.values.iter().copied())
+            .collect(),
+    };
+    let radii = particles.radii.as_deref();
+    write_point_grid(
+        path,
+        &positions,
+        (radii, &velocities),
+        &attributes,
+        voxel_size,
+        name,
+    )
+}
+
+fn write_point_grid(
+    path: &Path,
+    positions: &[[f32; 3]],
+    (radii, velocities): (Option<&[f32]>, &[f32]),
+    attributes: &ffi::bridge::PointAttributes,
+    voxel_size: f64,
+    name: &str,
+) -> Result<(), VdbError> {
+    let flat: Vec<f32> = positions.iter().flatten().copied().collect();
     crate::io::write_atomically(path, |tmp| {
         ffi::bridge::write_points(
             &tmp.to_string_lossy(),
             &flat,
             radii.unwrap_or(&[]),
             velocities,
+            attributes,
             voxel_size,
             name,
         )

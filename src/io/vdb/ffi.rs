@@ -104,6 +104,19 @@ pub(crate) mod bridge {
         /// `v` (x, y, z) per point when `has_velocity`.
         velocities: Vec<f32>,
         has_velocity: bool,
+        /// `id` and the other scalar and vector attributes.
+        attributes: PointAttributes,
+    }
+
+    /// A point grid's `id` (int32 or int64; empty without) and its other attributes of
+    /// one or three numbers (float, double, int32, vec3s, vec3d, vec3i), each as floats,
+    /// attribute after attribute, `components[k]` per point.
+    #[derive(Debug, Clone, Default)]
+    struct PointAttributes {
+        ids: Vec<i64>,
+        names: Vec<String>,
+        components: Vec<u32>,
+        values: Vec<f32>,
     }
 
     /// A vector grid (vec3s or vec3d) copied out leaf by leaf: 512 voxels × 3 components
@@ -225,16 +238,18 @@ pub(crate) mod bridge {
             omega: f64,
             duration: f64,
         ) -> Result<MorphTiming>;
-        /// The positions (and `pscale`) of the point data grid `name`, or of the first one
-        /// when `name` is empty.
+        /// The positions (and `pscale`, `v`, `id`, other attributes) of the point data grid
+        /// `name`, or of the first one when `name` is empty.
         fn read_points(path: &str, name: &str) -> Result<PointBuffers>;
         /// Writes one point data grid (16-bit fixed-point positions, `pscale` when `radii`
-        /// is not empty): a fixture for tests and the sample data.
+        /// is not empty, `v`, `id` and float or vec3s attributes when given): a fixture
+        /// for tests and the sample data.
         fn write_points(
             path: &str,
             positions: &[f32],
             radii: &[f32],
             velocities: &[f32],
+            attributes: &PointAttributes,
             voxel_size: f64,
             name: &str,
         ) -> Result<()>;
