@@ -12,6 +12,7 @@ mod inputs;
 mod outputs;
 mod particle_run;
 pub mod scale;
+mod stream;
 #[cfg(feature = "vdb")]
 mod targets;
 
@@ -21,8 +22,11 @@ pub use inputs::{
     auto_warmup, AttributeChoice, AttributeSource, InputFrames, ParticleFrame, ParticleInput,
     WARMUP_AUTO_FACTOR,
 };
-pub use outputs::{OutputSpec, Outputs, Progress, Report, SurfaceValues, UsdSpec};
-pub use particle_run::ParticleRun;
+pub use outputs::{
+    OutputSpec, Outputs, Progress, Report, Surface, SurfaceSink, SurfaceValues, UsdSpec,
+};
+pub use particle_run::{ParticleRun, ParticleSource};
+pub use stream::{FrameSurface, ParticleStream, StreamSpec};
 #[cfg(feature = "vdb")]
 pub use targets::{
     background_outside, check_transform, check_usable, not_finite, read_target, read_target_in,

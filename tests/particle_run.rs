@@ -60,6 +60,7 @@ fn run_library(into: &Path) {
         reads: vec![input.pattern.clone()],
         velocities: true,
         usd: None,
+        surfaces: None,
     };
     let mut outputs = Outputs::new(&spec, (1, 4)).unwrap();
     let run = ParticleRun {

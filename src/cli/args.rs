@@ -199,6 +199,7 @@ impl OutputArgs {
             reads: Vec::new(),
             velocities: self.velocities,
             usd: self.usd_spec()?,
+            surfaces: None,
         })
     }
 

@@ -85,19 +85,19 @@ pub fn shot(args: &ParticlesArgs) -> anyhow::Result<Shot<'_>> {
 
 pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     let l = args.smoothing_length;
+    let defaults = ParticleInput::with_radius(args.radius);
     let mut particles = ParticleInput {
-        radius: args.radius,
         ignore_radii: args.ignore_radii,
         smoothing_length: l,
         iso: args.iso.unwrap_or_else(|| fluid_iso(l)),
-        density_out: None,
-        dx: args.physics.voxel_size.unwrap_or(0.5 * args.radius),
+        dx: args.physics.voxel_size.unwrap_or(defaults.dx),
         velocity_scale: (!args.no_velocity).then_some(args.velocity_scale),
         attributes: match args.attributes.as_slice() {
             [] => AttributeChoice::None,
             names if names.iter().any(|n| n == "all") => AttributeChoice::All,
             names => AttributeChoice::Named(names.to_vec()),
         },
+        ..defaults
     };
     if let Err(why) = particles.check() {
         usage!("{why}");

@@ -10,7 +10,10 @@ use crate::grid::REACH_VOXELS;
 use crate::io::particles;
 use crate::particles::{motion::frame_velocities, Attribute, Particles};
 use crate::sequence::{FramePattern, PatternError};
-use crate::target::{Density, DensityGrid, MAX_SMOOTHING_LENGTH, VELOCITY_SUPPORT_RADII};
+use crate::target::{
+    fluid_iso, Density, DensityGrid, DEFAULT_SMOOTHING_LENGTH, MAX_SMOOTHING_LENGTH,
+    VELOCITY_SUPPORT_RADII,
+};
 #[cfg(feature = "vdb")]
 use crate::vdb::{self, Grid, WriteOptions};
 
@@ -139,6 +142,24 @@ pub struct ParticleInput {
     pub attributes: AttributeChoice,
 }
 
+impl ParticleInput {
+    /// Particles of `radius` at the defaults: smoothing length
+    /// [`DEFAULT_SMOOTHING_LENGTH`], the iso-density of a fluid at rest's boundary
+    /// ([`fluid_iso`]), voxels of half the radius, velocities as they are, no attributes.
+    pub fn with_radius(radius: f32) -> Self {
+        ParticleInput {
+            radius,
+            ignore_radii: false,
+            smoothing_length: DEFAULT_SMOOTHING_LENGTH,
+            iso: fluid_iso(DEFAULT_SMOOTHING_LENGTH),
+            density_out: None,
+            dx: 0.5 * radius,
+            velocity_scale: Some(1.0),
+            attributes: AttributeChoice::None,
+        }
+    }
+}
+
 /// Which particle attributes are carried onto the surface.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub enum AttributeChoice {
@@ -253,7 +274,19 @@ impl ParticleInput {
         duration: f32,
     ) -> Result<ParticleFrame, FrameError> {
         // No particles is a frame without liquid, as an empty grid is.
-        let mut cloud = particles::read(path)?;
+        self.frame_of(particles::read(path)?, path, frame, before, duration)
+    }
+
+    /// [`ParticleInput::frame`] of particles already read (`path` names them in
+    /// messages).
+    pub fn frame_of(
+        &self,
+        mut cloud: Particles,
+        path: &Path,
+        frame: i64,
+        before: Option<&Particles>,
+        duration: f32,
+    ) -> Result<ParticleFrame, FrameError> {
         // Stray particles beyond the grid's reach would snap to a lattice coarser than
         // its voxels: left out, and said (as are those of the frame they are matched to).
         let reach = REACH_VOXELS * self.dx;

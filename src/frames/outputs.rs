@@ -80,6 +80,27 @@ pub struct OutputSpec {
     pub velocities: bool,
     /// A USD shot of the meshes.
     pub usd: Option<UsdSpec>,
+    /// Told of each frame's surface as it is written (the Python API hands it over).
+    pub surfaces: Option<SurfaceSink>,
+}
+
+/// A frame's surface as the outputs write it: the skin's mesh, the values at its
+/// vertices, the frame's measures.
+pub struct Surface<'a> {
+    pub frame: i64,
+    pub mesh: &'a crate::mesh::Mesh,
+    pub values: crate::io::mesh::VertexValues<'a>,
+    pub stats: &'a StepStats,
+}
+
+/// Who is told of each frame's [`Surface`].
+#[derive(Clone)]
+pub struct SurfaceSink(pub Arc<dyn Fn(&Surface) + Send + Sync>);
+
+impl std::fmt::Debug for SurfaceSink {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("SurfaceSink")
+    }
 }
 
 /// A USD shot (`--usd`): the stage, its units, and the shot's frames when this run
@@ -122,6 +143,7 @@ pub struct Outputs {
     usd: Option<(UsdSpec, (i64, i64), bool)>,
     /// Frames a second, for the USD stage's time codes.
     fps: f64,
+    surfaces: Option<SurfaceSink>,
 }
 
 impl Outputs {
@@ -143,7 +165,11 @@ impl Outputs {
             .as_ref()
             .map(|u| shot_of(u, (first, last)))
             .transpose()?;
-        let nothing = out.is_none() && mesh.is_none() && render.is_none() && usd.is_none();
+        let nothing = out.is_none()
+            && mesh.is_none()
+            && render.is_none()
+            && usd.is_none()
+            && spec.surfaces.is_none();
         if nothing && spec.stats.is_none() {
             return usage(
                 "nothing to write: give --out, --mesh, --usd, --render or --stats".into(),
@@ -198,6 +224,7 @@ impl Outputs {
             velocities: spec.velocities,
             usd: usd.map(|(u, shot)| (u, shot.frames, false)),
             fps: 24.0,
+            surfaces: spec.surfaces.clone(),
         })
     }
 
@@ -244,9 +271,11 @@ impl Outputs {
         )
     }
 
-    /// Whether meshes are written in a format that holds values per vertex (PLY, USD).
+    /// Whether meshes are written in a format that holds values per vertex (PLY, USD, or
+    /// handed over).
     pub fn vertices_hold_values(&self) -> bool {
         self.usd.is_some()
+            || self.surfaces.is_some()
             || self
                 .mesh
                 .as_ref()
@@ -290,6 +319,14 @@ impl Outputs {
                 *staged = true;
             }
             shot.write_frame(frame, skin.mesh(), values)?;
+        }
+        if let Some(sink) = &self.surfaces {
+            (sink.0)(&Surface {
+                frame,
+                mesh: skin.mesh(),
+                values,
+                stats,
+            });
         }
         if let Some((pattern, size, camera)) = &mut self.render {
             let data = level_set;
@@ -377,7 +414,9 @@ impl Outputs {
     /// Whether a frame's χ and components are written or printed ([`Outputs::write_frame`]
     /// reads them from its stats).
     pub fn reports_topology(&self) -> bool {
-        self.stats.is_some() || self.progress.as_ref().is_some_and(|p| p.topology)
+        self.stats.is_some()
+            || self.surfaces.is_some()
+            || self.progress.as_ref().is_some_and(|p| p.topology)
     }
 
     fn tell(&self, report: &Report) {

@@ -4,6 +4,7 @@
 //! skin starts on the first frame's density, one solid. The `particles` command and the
 //! library's callers run it alike, with or without OpenVDB.
 
+use std::path::PathBuf;
 use std::sync::Arc;
 
 use super::{
@@ -31,6 +32,42 @@ pub struct ParticleRun<'a> {
     pub hold_volume: bool,
 }
 
+/// Where a particle run's frames come from: files (`--particles`), or particles handed
+/// over frame by frame (the Python API).
+pub trait ParticleSource {
+    /// The particles of `frame` and the path naming them in messages; `Ok(None)` when the
+    /// source has no such frame.
+    fn particles(&mut self, frame: i64) -> Result<Option<(Particles, PathBuf)>, FrameError>;
+    /// Why frame `frame` cannot be had, when it was needed.
+    fn missing(&self, frame: i64) -> FrameError;
+}
+
+/// The frames of a pattern, read from their files.
+struct Files<'a>(&'a InputFrames);
+
+impl ParticleSource for Files<'_> {
+    fn particles(&mut self, frame: i64) -> Result<Option<(Particles, PathBuf)>, FrameError> {
+        let input = self.0;
+        if !(input.pattern.is_held() || input.existing.binary_search(&frame).is_ok()) {
+            return Ok(None);
+        }
+        let path = input.pattern.path(frame);
+        Ok(Some((particles::read(&path)?, path)))
+    }
+
+    fn missing(&self, frame: i64) -> FrameError {
+        let path = self.0.pattern.path(frame);
+        // There but not a file: said so, not called missing.
+        match crate::io::not_a_file(&path) {
+            Some(why) => FrameError::Data(format!("{}: {why}", path.display())),
+            None => FrameError::Data(format!(
+                "{}: frame {frame} of the particles is missing",
+                path.display()
+            )),
+        }
+    }
+}
+
 impl ParticleRun<'_> {
     /// Runs the frames into `outputs`; `note` hears, once, what the user should know
     /// (particles left out).
@@ -39,10 +76,20 @@ impl ParticleRun<'_> {
         outputs: &mut Outputs,
         note: &mut dyn FnMut(String),
     ) -> Result<(), FrameError> {
+        self.run_from(&mut Files(self.input), outputs, note)
+    }
+
+    /// [`ParticleRun::run`] on the frames of `source` (`self.input` gives the range).
+    pub fn run_from(
+        &self,
+        source: &mut dyn ParticleSource,
+        outputs: &mut Outputs,
+        note: &mut dyn FnMut(String),
+    ) -> Result<(), FrameError> {
         self.particles.check()?;
         super::check_fps(self.fps)?;
         self.params.check()?;
-        let (input, range, write_from) = (self.input, self.input.range, self.write_from);
+        let (range, write_from) = (self.input.range, self.write_from);
         // A warm-up frame writes nothing, its density neither.
         let quiet = ParticleInput {
             density_out: None,
@@ -59,25 +106,13 @@ impl ParticleRun<'_> {
         // number) and the attributes asked for.
         type Read = (DensityGrid, bool, f64, Option<AttributeSource>);
         let mut frame_at = |frame: i64| -> Result<Read, FrameError> {
-            let path = input.pattern.path(frame);
-            let exists =
-                |f: i64| input.pattern.is_held() || input.existing.binary_search(&f).is_ok();
-            if !exists(frame) {
-                // There but not a file: said so, not called missing.
-                if let Some(why) = crate::io::not_a_file(&path) {
-                    return Err(FrameError::Data(format!("{}: {why}", path.display())));
-                }
-                return Err(FrameError::Data(format!(
-                    "{}: frame {frame} of the particles is missing",
-                    path.display()
-                )));
-            }
+            let Some((cloud, path)) = source.particles(frame)? else {
+                return Err(source.missing(frame));
+            };
             let before = match last.take() {
                 Some((f, particles)) if f == frame - 1 => Some(particles),
                 // After a resume, or in a chunk: read as an uninterrupted run has it.
-                _ if frame > range.0 && exists(frame - 1) => {
-                    Some(particles::read(&input.pattern.path(frame - 1))?)
-                }
+                _ if frame > range.0 => source.particles(frame - 1)?.map(|(p, _)| p),
                 _ => None,
             };
             let reader = match frame < write_from {
@@ -90,7 +125,7 @@ impl ParticleRun<'_> {
                 carried,
                 note: said,
                 attributes,
-            } = reader.frame(&path, frame, before.as_ref(), duration)?;
+            } = reader.frame_of(cloud, &path, frame, before.as_ref(), duration)?;
             // Said once: a cache that strays does so on many frames.
             if let Some(line) = said.filter(|_| !noted) {
                 note(line);
