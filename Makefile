@@ -4,7 +4,7 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all deps build demo test farm-test bench lint soak fuzz clean
+.PHONY: all deps build demo test farm-test bench lint soak fuzz wheel clean
 
 all: build
 
@@ -51,10 +51,17 @@ fuzz: deps
 	cd fuzz && $(CARGO) +nightly fuzz run -O frame_pattern -- -max_total_time=$(FUZZ_SECONDS) -max_len=256
 	cd fuzz && mkdir -p corpus/particle_files && $(CARGO) +nightly fuzz run -O particle_files corpus/particle_files seeds/particle_files -- -max_total_time=$(FUZZ_SECONDS) -max_len=4096
 
+# The Python package: an abi3 wheel (CPython 3.10+) in target/wheels; then
+# pip install target/wheels/activeskin-*.whl
+wheel:
+	@command -v maturin >/dev/null || python3 -m pip install --user "maturin>=1.5,<2"
+	maturin build --release -m python/Cargo.toml -o target/wheels
+
 lint:
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --release --all-targets -- -D warnings
 	$(CARGO) clippy --release --no-default-features --lib --tests -- -D warnings
+	$(CARGO) clippy --release -p activeskin-python --all-targets -- -D warnings
 
 clean:
 	$(CARGO) clean

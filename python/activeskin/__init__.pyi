@@ -1,0 +1,65 @@
+from os import PathLike
+from typing import Mapping, Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+class Mesh:
+    """One frame's surface; the arrays are handed over from Rust without a copy."""
+
+    vertices: npt.NDArray[np.float32]
+    """Vertex positions, (n, 3), world units."""
+    triangles: npt.NDArray[np.uint32]
+    """Vertex indices, (m, 3), counter-clockwise seen from outside."""
+    normals: npt.NDArray[np.float32]
+    """Unit outward normals, (n, 3)."""
+    velocities: npt.NDArray[np.float32] | None
+    """The surface's velocity at each vertex, (n, 3), world units per second."""
+    attributes: dict[str, npt.NDArray[np.float32]]
+    """The particles' attributes at each vertex: (n,) or (n, 3)."""
+    frame: int
+    stats: dict[str, float | int]
+    """frame, time, substeps, band_nodes, blocks, area, volume, euler_characteristic, components."""
+
+    def save(self, path: str | PathLike[str]) -> None:
+        """Writes OBJ or PLY by the extension (PLY with velocities and attributes)."""
+
+class ParticleSkin:
+    """A skin advanced one frame at a time by a particle simulation's particles."""
+
+    def __init__(
+        self,
+        radius: float,
+        *,
+        voxel_size: float | None = None,
+        alpha: float = 4.0,
+        beta: float | None = None,
+        smoothing_length: float = 2.0,
+        iso: float | None = None,
+        fps: float = 24.0,
+        velocities: bool = True,
+        hold_volume: bool = True,
+        attributes: Sequence[str] | None = None,
+        first_frame: int = 1,
+    ) -> None:
+        """radius: half the particles' rest spacing; voxel_size defaults to radius/2;
+        alpha (1/s) the attraction; beta (world units²/s) the surface tension, by default
+        alpha·voxel²/8; attributes: names to carry onto the surface, or ["all"].
+        Raises ValueError with the command's message for parameters that cannot make a
+        skin."""
+
+    def advance(
+        self,
+        positions: npt.ArrayLike,
+        velocities: npt.ArrayLike | None = None,
+        ids: npt.ArrayLike | None = None,
+        attributes: Mapping[str, npt.ArrayLike] | None = None,
+    ) -> Mesh:
+        """The next frame's particles (positions (n, 3); velocities (n, 3) in world units
+        per second; ids (n,); attributes (n,) or (n, 3) by name) in, its surface out.
+        Releases the GIL while the frame computes; Ctrl-C raises KeyboardInterrupt."""
+
+    @property
+    def attributes(self) -> list[str] | None: ...
