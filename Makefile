@@ -4,7 +4,7 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all deps build demo test farm-test bench lint soak fuzz wheel clean
+.PHONY: all deps build demo test farm-test blender-test bench lint soak fuzz wheel blender-addon clean
 
 all: build
 
@@ -28,6 +28,7 @@ test: deps lint
 	$(CARGO) test --release
 	$(CARGO) test --release --no-default-features --lib --tests
 	$(MAKE) farm-test
+	$(MAKE) blender-test
 
 # A one-node Slurm cluster started by the test itself (as root; Debian's slurm-wlm and
 # munge, installed when missing): a 4-chunk job array against the sequential run.
@@ -37,6 +38,16 @@ farm-test: deps
 	else \
 		bash .ci/deps slurm-wlm munge && \
 		$(CARGO) test --release --test farm -- --ignored --nocapture; \
+	fi
+
+# The Blender add-on in Blender without a window (Debian's Blender and numpy, installed
+# when missing, as root).
+blender-test: deps
+	@if ! command -v blender >/dev/null && [ "$$(id -u)" -ne 0 ]; then \
+		echo "blender-test: skipped, Blender is not installed: sudo make blender-test"; \
+	else \
+		bash .ci/deps blender python3-numpy && \
+		$(CARGO) test --release --test python -- --ignored --nocapture; \
 	fi
 
 # 10 000 solver steps against ever-changing targets (about a minute).
@@ -56,6 +67,17 @@ fuzz: deps
 wheel:
 	@command -v maturin >/dev/null || python3 -m pip install --user "maturin>=1.5,<2"
 	maturin build --release -m python/Cargo.toml -o target/wheels
+
+# The add-on as one zip with the wheel inside: Blender 3.x installs it from Preferences >
+# Add-ons > Install; 4.2+ as an extension (the manifest lists the wheel).
+blender-addon: wheel
+	rm -rf target/blender/activeskin_blender && mkdir -p target/blender/activeskin_blender/wheels
+	cp blender/activeskin_blender/__init__.py target/blender/activeskin_blender/
+	cp target/wheels/activeskin-*.whl target/blender/activeskin_blender/wheels/
+	sed "s|^wheels = \[\]|wheels = [$$(cd target/blender/activeskin_blender && ls wheels/*.whl | sed 's|.*|\"./&\"|' | paste -sd,)]|" \
+		blender/activeskin_blender/blender_manifest.toml > target/blender/activeskin_blender/blender_manifest.toml
+	cd target/blender && rm -f activeskin_blender.zip && python3 -m zipfile -c activeskin_blender.zip activeskin_blender
+	@echo "target/blender/activeskin_blender.zip: Blender > Preferences > Add-ons > Install"
 
 lint:
 	$(CARGO) fmt --all -- --check

@@ -2,18 +2,25 @@
 //! the test's own (made here, once per build folder; maturin and numpy from pip),
 //! installed, and `python/tests/test_activeskin.py` run against this build's binary —
 //! the same meshes as the command byte for byte, ValueError with the command's message,
-//! the GIL released while a frame computes.
+//! the GIL released while a frame computes; and the Blender add-on baking with it.
 #![cfg(feature = "cli")]
 
 mod common;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::Mutex;
 
 use common::{assert_ok, scratch};
 
-#[test]
-fn the_wheel_skins_numpy_particles_as_the_command_does() {
+/// The package's wheel, built once for the tests of this file with maturin in a venv of
+/// its own; and that venv's Python, with the wheel installed.
+fn wheel() -> (PathBuf, PathBuf) {
+    static BUILT: Mutex<Option<(PathBuf, PathBuf)>> = Mutex::new(None);
+    let mut built = BUILT.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(done) = built.as_ref() {
+        return done.clone();
+    }
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let work = Path::new(env!("CARGO_TARGET_TMPDIR")).join("python");
     let venv = work.join("venv");
@@ -47,7 +54,7 @@ fn the_wheel_skins_numpy_particles_as_the_command_does() {
     // Its own target folder: the build running this test holds the workspace's.
     let wheels = work.join("wheels");
     let _ = std::fs::remove_dir_all(&wheels);
-    let built = Command::new(venv.join("bin/maturin"))
+    let made = Command::new(venv.join("bin/maturin"))
         .args(["build", "--release", "--quiet", "-m"])
         .arg(root.join("python/Cargo.toml"))
         .arg("-o")
@@ -55,7 +62,7 @@ fn the_wheel_skins_numpy_particles_as_the_command_does() {
         .env("CARGO_TARGET_DIR", work.join("target"))
         .output()
         .expect("maturin");
-    assert_ok(&built);
+    assert_ok(&made);
     let wheel = std::fs::read_dir(&wheels)
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -77,6 +84,14 @@ fn the_wheel_skins_numpy_particles_as_the_command_does() {
             .output()
             .unwrap(),
     );
+    *built = Some((wheel, python));
+    built.clone().unwrap()
+}
+
+#[test]
+fn the_wheel_skins_numpy_particles_as_the_command_does() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let (_, python) = wheel();
     let dir = scratch();
     let run = Command::new(&python)
         .arg(root.join("python/tests/test_activeskin.py"))
@@ -86,4 +101,45 @@ fn the_wheel_skins_numpy_particles_as_the_command_does() {
         .unwrap();
     println!("{}", String::from_utf8_lossy(&run.stdout));
     assert_ok(&run);
+}
+
+/// The Blender add-on (`blender/`) in Blender without a window, the wheel beside it as
+/// its zip bundles it: `make blender-test` installs Blender (Debian's, with numpy) and
+/// runs it.
+#[test]
+#[ignore = "needs Blender: make blender-test installs it"]
+fn the_blender_addon_bakes_a_falling_particle_system_and_resumes() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let (wheel, _) = wheel();
+    let dir = scratch();
+    let addon = dir.path().join("addon/activeskin_blender");
+    std::fs::create_dir_all(addon.join("wheels")).unwrap();
+    std::fs::copy(
+        root.join("blender/activeskin_blender/__init__.py"),
+        addon.join("__init__.py"),
+    )
+    .unwrap();
+    std::fs::copy(
+        &wheel,
+        addon.join("wheels").join(wheel.file_name().unwrap()),
+    )
+    .unwrap();
+    let cache = dir.path().join("cache");
+    let run = Command::new("blender")
+        .args(["-b", "--factory-startup", "--python"])
+        .arg(root.join("blender/tests/test_addon.py"))
+        .arg("--")
+        .arg(dir.path().join("addon"))
+        .arg(&cache)
+        .output()
+        .expect("blender (make blender-test installs it)");
+    let printed = String::from_utf8_lossy(&run.stdout);
+    println!("{printed}");
+    assert_ok(&run);
+    // Blender exits 0 after a failing script: the script's last line says it passed.
+    assert!(
+        printed.contains("ADDON OK"),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
 }

@@ -11,6 +11,6 @@ surfaces, byte for byte.
 (3, dtype('uint32'))
 """
 
-from ._activeskin import Mesh, ParticleSkin, __version__
+from ._activeskin import Mesh, ParticleSkin, __version__, read_particles
 
-__all__ = ["Mesh", "ParticleSkin", "__version__"]
+__all__ = ["Mesh", "ParticleSkin", "__version__", "read_particles"]

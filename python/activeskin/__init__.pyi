@@ -63,3 +63,9 @@ class ParticleSkin:
 
     @property
     def attributes(self) -> list[str] | None: ...
+
+def read_particles(path: str | PathLike[str]) -> dict[str, object]:
+    """One particle file as the command reads it (PLY, VTK, VTU, BGEO, JSON, CSV, XYZ):
+    positions (n, 3) float32; velocities (n, 3), ids (n,) int64 and radii (n,) or None;
+    attributes, a dict of (n,) or (n, 3) arrays by name. ValueError with the command's
+    message for a file it cannot read."""

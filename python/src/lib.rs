@@ -399,8 +399,48 @@ impl ParticleSkin {
     }
 }
 
+/// Reads one particle file as the command reads it (PLY, VTK, VTU, BGEO, JSON, CSV, XYZ):
+/// a dict of `positions` (n, 3), `velocities` (n, 3) or None, `ids` (n,) or None,
+/// `radii` (n,) or None, and `attributes` by name.
+#[pyfunction]
+fn read_particles(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Bound<'_, PyDict>> {
+    let particles = py
+        .detach(|| activeskin::io::particles::read(&path))
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let out = PyDict::new(py);
+    out.set_item("positions", vectors_array(py, particles.positions))?;
+    out.set_item(
+        "velocities",
+        particles.velocities.map(|v| vectors_array(py, v)),
+    )?;
+    out.set_item(
+        "ids",
+        particles.ids.map(|i| Array1::from_vec(i).into_pyarray(py)),
+    )?;
+    out.set_item(
+        "radii",
+        particles
+            .radii
+            .map(|r| Array1::from_vec(r).into_pyarray(py)),
+    )?;
+    let named = PyDict::new(py);
+    for a in particles.attributes {
+        let array = match a.components {
+            1 => Array1::from_vec(a.values).into_pyarray(py).into_any(),
+            c => Array2::from_shape_vec((a.values.len() / c, c), a.values)
+                .map_err(|e| PyRuntimeError::new_err(e.to_string()))?
+                .into_pyarray(py)
+                .into_any(),
+        };
+        named.set_item(a.name, array)?;
+    }
+    out.set_item("attributes", named)?;
+    Ok(out)
+}
+
 #[pymodule]
 fn _activeskin(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(read_particles, m)?)?;
     m.add_class::<ParticleSkin>()?;
     m.add_class::<Mesh>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -1,0 +1,405 @@
+"""activeskin for Blender: a surface that follows a particle simulation through time.
+
+Bakes a skin (Desbrun & Cani's active implicit surface, through the activeskin Python
+package) on a particle system of the scene or on a particle file sequence (PLY, VTK,
+VTU, BGEO, CSV: whatever `activeskin particles` reads), frame by frame, into a cache
+folder of PLY meshes (with the surface's velocity per vertex), and shows the baked
+surface as a mesh object that follows the timeline, with a `velocity` point attribute
+for motion blur. Sidebar (N) > activeskin in the 3D viewport.
+"""
+
+bl_info = {
+    "name": "activeskin",
+    "author": "activeskin",
+    "version": (0, 1, 0),
+    "blender": (3, 0, 0),
+    "location": "3D Viewport > Sidebar > activeskin",
+    "description": "Skin a particle simulation with a surface that follows it without lag or flicker",
+    "category": "Physics",
+}
+
+import glob
+import math
+import os
+import re
+import sys
+import zipfile
+
+import bpy
+import numpy as np
+
+CACHE_NAME = "skin_{frame:04d}.ply"
+DISPLAY_NAME = "ActiveSkin"
+
+
+def _activeskin():
+    """The activeskin package: installed, or unpacked once from the wheel beside the
+    add-on (the 3.x add-on zip bundles it; 4.2+ extensions install it themselves)."""
+    try:
+        import activeskin
+
+        return activeskin
+    except ImportError:
+        pass
+    here = os.path.dirname(os.path.abspath(__file__))
+    wheels = sorted(glob.glob(os.path.join(here, "wheels", "activeskin-*.whl")))
+    if not wheels:
+        raise ImportError(
+            "the activeskin Python package is missing: install the add-on zip that bundles "
+            "its wheel, or pip install it into Blender's Python"
+        )
+    vendor = os.path.join(here, "vendor")
+    if not os.path.isdir(os.path.join(vendor, "activeskin")):
+        with zipfile.ZipFile(wheels[-1]) as wheel:
+            wheel.extractall(vendor)
+    if vendor not in sys.path:
+        sys.path.insert(0, vendor)
+    import activeskin
+
+    return activeskin
+
+
+def _one_line(error):
+    text = str(error).strip().splitlines()
+    return text[0] if text else type(error).__name__
+
+
+def _frame_path(pattern, frame):
+    """A file of a frame pattern: `####` padded, `#` unpadded (as SPlisHSPlasH numbers)."""
+    return re.sub(r"#+", lambda m: str(frame).zfill(len(m.group())), pattern)
+
+
+def _cache_dir(settings):
+    return bpy.path.abspath(settings.cache_dir)
+
+
+class ActiveSkinSettings(bpy.types.PropertyGroup):
+    source: bpy.props.EnumProperty(
+        name="Source",
+        items=[
+            ("PARTICLES", "Particle system", "The particles of an object's particle system"),
+            ("FILES", "Files", "A particle file sequence: PLY, VTK, VTU, BGEO, CSV"),
+        ],
+        default="PARTICLES",
+    )
+    emitter: bpy.props.PointerProperty(name="Object", type=bpy.types.Object)
+    particle_system: bpy.props.StringProperty(
+        name="Particle system", description="Its name; empty for the object's active one"
+    )
+    pattern: bpy.props.StringProperty(
+        name="Files",
+        subtype="FILE_PATH",
+        description="Frame pattern: #### for padded numbers, # for unpadded (SPlisHSPlasH)",
+    )
+    radius: bpy.props.FloatProperty(
+        name="Particle radius", default=0.05, min=0.0, precision=4,
+        description="Half the rest spacing of the simulation's particles",
+    )
+    voxel_size: bpy.props.FloatProperty(
+        name="Voxel size", default=0.0, min=0.0, precision=4,
+        description="0 for the default, half the particle radius",
+    )
+    alpha: bpy.props.FloatProperty(
+        name="Attraction α", default=4.0, min=0.0,
+        description="How fast the skin closes on the particles (1/s): lower is smoother",
+    )
+    beta: bpy.props.FloatProperty(
+        name="Tension β", default=0.0, min=0.0, precision=6,
+        description="Surface tension (units²/s); 0 for the default, α·voxel²/8",
+    )
+    use_velocity: bpy.props.BoolProperty(
+        name="Follow the motion", default=True,
+        description="Carry the skin by the particles' own motion (their ids and velocities)",
+    )
+    frame_start: bpy.props.IntProperty(name="Start", default=1)
+    frame_end: bpy.props.IntProperty(name="End", default=100)
+    cache_dir: bpy.props.StringProperty(
+        name="Cache", subtype="DIR_PATH", default="//activeskin/",
+        description="Folder of the baked meshes (PLY, one a frame)",
+    )
+
+
+def _particles_of(settings, scene, depsgraph):
+    """This frame's particles of the scene's particle system: positions, velocities, ids
+    (the particles' indices, stable in Blender)."""
+    emitter = settings.emitter
+    if emitter is None:
+        raise ValueError("choose the object whose particle system to skin")
+    evaluated = emitter.evaluated_get(depsgraph)
+    systems = evaluated.particle_systems
+    if len(systems) == 0:
+        raise ValueError(f"{emitter.name} has no particle system")
+    name = settings.particle_system
+    system = systems.get(name) if name else systems.active
+    if system is None:
+        raise ValueError(f"{emitter.name} has no particle system named {name}")
+    particles = system.particles
+    n = len(particles)
+    location = np.empty(3 * n, np.float32)
+    velocity = np.empty(3 * n, np.float32)
+    alive = np.empty(n, np.int32)
+    particles.foreach_get("location", location)
+    particles.foreach_get("velocity", velocity)
+    particles.foreach_get("alive_state", alive)
+    # foreach_get gives the enum's values, not its order.
+    keep = alive == bpy.types.Particle.bl_rna.properties["alive_state"].enum_items["ALIVE"].value
+    ids = np.arange(n, dtype=np.int64)[keep]
+    # Blender's particle velocities are in units per second.
+    return location.reshape(n, 3)[keep], velocity.reshape(n, 3)[keep], ids
+
+
+class Bake:
+    """One bake: the skin, the frames left, what to write. A bake stopped part-way
+    resumes after the last whole frame of its cache, warming the skin up on the frames
+    before as a farm chunk does (ln(40)·fps/α frames)."""
+
+    def __init__(self, context):
+        self.scene = context.scene
+        self.settings = self.scene.activeskin
+        s = self.settings
+        if s.frame_end < s.frame_start:
+            raise ValueError(f"the frame range {s.frame_start}-{s.frame_end} is empty")
+        if s.source == "FILES" and not s.pattern:
+            raise ValueError("choose the particle files: a pattern with #### or #")
+        self.cache = _cache_dir(s)
+        os.makedirs(self.cache, exist_ok=True)
+        done = s.frame_start - 1
+        while done < s.frame_end and os.path.isfile(self._cached(done + 1)):
+            done += 1
+        self.done = done
+        fps = self.scene.render.fps / self.scene.render.fps_base
+        warmup = math.ceil(math.log(40) * fps / s.alpha) if s.alpha > 0 else done
+        self.first = s.frame_start if done < s.frame_start else max(s.frame_start, done + 1 - warmup)
+        self.frames = list(range(self.first, s.frame_end + 1)) if done < s.frame_end else []
+        activeskin = _activeskin()
+        self.skin = activeskin.ParticleSkin(
+            s.radius,
+            voxel_size=s.voxel_size or None,
+            alpha=s.alpha,
+            beta=s.beta or None,
+            fps=fps,
+            first_frame=self.first,
+        )
+        self.total = len(self.frames)
+
+    def _cached(self, frame):
+        return os.path.join(self.cache, CACHE_NAME.format(frame=frame))
+
+    def step(self, context):
+        """Bakes the next frame; False when none is left."""
+        if not self.frames:
+            return False
+        frame = self.frames.pop(0)
+        s = self.settings
+        if s.source == "PARTICLES":
+            self.scene.frame_set(frame)
+            positions, velocities, ids = _particles_of(s, self.scene, context.evaluated_depsgraph_get())
+        else:
+            path = bpy.path.abspath(_frame_path(s.pattern, frame))
+            read = _activeskin().read_particles(path)
+            positions, velocities, ids = read["positions"], read["velocities"], read["ids"]
+        if not s.use_velocity:
+            velocities, ids = None, None
+        mesh = self.skin.advance(positions, velocities=velocities, ids=ids)
+        if frame > self.done:
+            mesh.save(self._cached(frame))
+        return True
+
+
+class ACTIVESKIN_OT_bake(bpy.types.Operator):
+    """Bake the skin over the frame range into the cache folder (Esc cancels; a bake
+    started again resumes after its last frame)"""
+
+    bl_idname = "activeskin.bake"
+    bl_label = "Bake Skin"
+
+    _timer = None
+    _bake = None
+
+    def _start(self, context):
+        try:
+            return Bake(context)
+        except (ValueError, RuntimeError, OSError, ImportError) as e:
+            self.report({"ERROR"}, _one_line(e))
+            return None
+
+    def _step(self, context):
+        try:
+            return self._bake.step(context)
+        except (ValueError, RuntimeError, OSError, ImportError) as e:
+            self.report({"ERROR"}, _one_line(e))
+            raise
+
+    def execute(self, context):
+        self._bake = self._start(context)
+        if self._bake is None:
+            return {"CANCELLED"}
+        try:
+            while self._step(context):
+                pass
+        except (ValueError, RuntimeError, OSError, ImportError):
+            return {"CANCELLED"}
+        _show(context.scene)
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        self._bake = self._start(context)
+        if self._bake is None:
+            return {"CANCELLED"}
+        wm = context.window_manager
+        wm.progress_begin(0, max(self._bake.total, 1))
+        self._timer = wm.event_timer_add(0.01, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        wm = context.window_manager
+        if event.type == "ESC":
+            self._finish(context)
+            self.report({"WARNING"}, "bake cancelled; baking again resumes after the last frame written")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            more = self._step(context)
+        except (ValueError, RuntimeError, OSError, ImportError):
+            self._finish(context)
+            return {"CANCELLED"}
+        left = len(self._bake.frames)
+        wm.progress_update(self._bake.total - left)
+        context.area and context.area.header_text_set(f"activeskin: {left} frames left (Esc cancels)")
+        if not more:
+            self._finish(context)
+            _show(context.scene)
+            return {"FINISHED"}
+        return {"RUNNING_MODAL"}
+
+    def _finish(self, context):
+        wm = context.window_manager
+        if self._timer:
+            wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        if context.area:
+            context.area.header_text_set(None)
+
+
+def read_ply(path):
+    """A mesh PLY as activeskin writes it: positions, triangles, velocities (or None)."""
+    with open(path, "rb") as f:
+        data = f.read()
+    end = data.index(b"end_header\n") + len(b"end_header\n")
+    header = data[:end].decode("ascii").splitlines()
+    vertices = faces = 0
+    properties = []
+    for line in header:
+        words = line.split()
+        if words[:2] == ["element", "vertex"]:
+            vertices = int(words[2])
+        elif words[:2] == ["element", "face"]:
+            faces = int(words[2])
+        elif words[:2] == ["property", "float"]:
+            properties.append(words[2])
+    k = len(properties)
+    table = np.frombuffer(data, np.float32, vertices * k, end).reshape(vertices, k)
+    records = np.frombuffer(
+        data, np.dtype([("n", "u1"), ("i", "<i4", (3,))]), faces, end + 4 * k * vertices
+    )
+    velocity = None
+    if "vx" in properties:
+        at = properties.index("vx")
+        velocity = table[:, at : at + 3]
+    return table[:, 0:3], records["i"], velocity
+
+
+def _display_object(scene):
+    obj = bpy.data.objects.get(DISPLAY_NAME)
+    if obj is None:
+        mesh = bpy.data.meshes.new(DISPLAY_NAME)
+        obj = bpy.data.objects.new(DISPLAY_NAME, mesh)
+        scene.collection.objects.link(obj)
+    return obj
+
+
+def load_frame(scene, frame):
+    """The display object's mesh set to the cached surface of `frame` (empty when the
+    frame is not baked)."""
+    path = os.path.join(_cache_dir(scene.activeskin), CACHE_NAME.format(frame=frame))
+    obj = _display_object(scene)
+    mesh = obj.data
+    mesh.clear_geometry()
+    if not os.path.isfile(path):
+        return obj
+    positions, triangles, velocity = read_ply(path)
+    n, m = len(positions), len(triangles)
+    mesh.vertices.add(n)
+    mesh.vertices.foreach_set("co", positions.ravel())
+    mesh.loops.add(3 * m)
+    mesh.loops.foreach_set("vertex_index", triangles.ravel())
+    mesh.polygons.add(m)
+    mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * m, 3, dtype=np.int32))
+    mesh.polygons.foreach_set("loop_total", np.full(m, 3, np.int32))
+    mesh.polygons.foreach_set("use_smooth", np.ones(m, bool))
+    if velocity is not None:
+        # What Cycles' motion blur reads on a mesh whose vertices change every frame.
+        attribute = mesh.attributes.new("velocity", "FLOAT_VECTOR", "POINT")
+        attribute.data.foreach_set("vector", np.ascontiguousarray(velocity).ravel())
+    mesh.update()
+    return obj
+
+
+def _show(scene):
+    load_frame(scene, scene.frame_current)
+
+
+@bpy.app.handlers.persistent
+def _on_frame_change(scene, *args):
+    if bpy.data.objects.get(DISPLAY_NAME) is not None:
+        try:
+            load_frame(scene, scene.frame_current)
+        except (OSError, ValueError) as e:
+            print(f"activeskin: {_one_line(e)}")
+
+
+class ACTIVESKIN_PT_panel(bpy.types.Panel):
+    bl_label = "activeskin"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "activeskin"
+
+    def draw(self, context):
+        s = context.scene.activeskin
+        layout = self.layout
+        layout.prop(s, "source")
+        if s.source == "PARTICLES":
+            layout.prop(s, "emitter")
+            layout.prop(s, "particle_system")
+        else:
+            layout.prop(s, "pattern")
+        layout.prop(s, "radius")
+        layout.prop(s, "voxel_size")
+        layout.prop(s, "alpha")
+        layout.prop(s, "beta")
+        layout.prop(s, "use_velocity")
+        row = layout.row(align=True)
+        row.prop(s, "frame_start")
+        row.prop(s, "frame_end")
+        layout.prop(s, "cache_dir")
+        layout.operator(ACTIVESKIN_OT_bake.bl_idname, icon="MOD_FLUIDSIM")
+
+
+classes = (ActiveSkinSettings, ACTIVESKIN_OT_bake, ACTIVESKIN_PT_panel)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    bpy.types.Scene.activeskin = bpy.props.PointerProperty(type=ActiveSkinSettings)
+    bpy.app.handlers.frame_change_post.append(_on_frame_change)
+
+
+def unregister():
+    if _on_frame_change in bpy.app.handlers.frame_change_post:
+        bpy.app.handlers.frame_change_post.remove(_on_frame_change)
+    del bpy.types.Scene.activeskin
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)
