@@ -1,7 +1,8 @@
 //! The Python package (`python/`, issue 30): its wheel built with maturin into a venv of
 //! the test's own (made here, once per build folder; maturin and numpy from pip),
-//! installed, and `python/tests/test_activeskin.py` run against this build's binary —
-//! the same meshes as the command byte for byte, ValueError with the command's message,
+//! installed, and its pytest suite (`python/tests`) run against this build's binary —
+//! the same meshes as the command byte for byte (the demo splash too), the arrays the
+//! Rust buffers, ValueError with the command's message,
 //! the GIL released while a frame computes; and the Blender add-on baking with it.
 #![cfg(feature = "cli")]
 
@@ -26,7 +27,7 @@ fn wheel() -> (PathBuf, PathBuf) {
     let venv = work.join("venv");
     let python = venv.join("bin/python");
     let ready = Command::new(&python)
-        .args(["-c", "import maturin, numpy"])
+        .args(["-c", "import maturin, numpy, pytest"])
         .output()
         .is_ok_and(|o| o.status.success());
     if !ready {
@@ -46,7 +47,7 @@ fn wheel() -> (PathBuf, PathBuf) {
                     "--quiet",
                     "--disable-pip-version-check",
                 ])
-                .args(["maturin>=1.5,<2", "numpy"])
+                .args(["maturin>=1.5,<2", "numpy", "pytest"])
                 .output()
                 .expect("pip"),
         );
@@ -91,12 +92,16 @@ fn wheel() -> (PathBuf, PathBuf) {
 #[test]
 fn the_wheel_skins_numpy_particles_as_the_command_does() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let (_, python) = wheel();
+    let (wheel, python) = wheel();
+    let megabytes = std::fs::metadata(&wheel).unwrap().len() as f64 / 1e6;
+    println!("wheel: {megabytes:.1} MB");
+    assert!(megabytes < 15.0, "{megabytes} MB");
     let dir = scratch();
     let run = Command::new(&python)
-        .arg(root.join("python/tests/test_activeskin.py"))
-        .arg(env!("CARGO_BIN_EXE_activeskin"))
+        .args(["-m", "pytest", "-q", "-p", "no:cacheprovider", "--basetemp"])
         .arg(dir.path())
+        .arg(root.join("python/tests"))
+        .env("ACTIVESKIN_BIN", env!("CARGO_BIN_EXE_activeskin"))
         .output()
         .unwrap();
     println!("{}", String::from_utf8_lossy(&run.stdout));

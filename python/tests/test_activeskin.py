@@ -1,20 +1,31 @@
-"""The Python package against the command line: run by tests/python.rs after building
-the wheel with maturin into a venv of its own.
+"""The Python package against the command line, with pytest: run by tests/python.rs
+after it builds the wheel with maturin into a venv of its own.
 
-    python test_activeskin.py ACTIVESKIN_BINARY SCRATCH_DIR
+    ACTIVESKIN_BIN=target/release/activeskin pytest python/tests
 """
 
+import os
 import pathlib
 import subprocess
-import sys
 import threading
 import time
 
 import numpy as np
+import pytest
 
 import activeskin
 
 R = 0.02
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+SPLASH = ROOT / "data" / "splash"
+
+
+@pytest.fixture(scope="session")
+def binary():
+    path = os.environ.get("ACTIVESKIN_BIN")
+    if not path:
+        pytest.fail("set ACTIVESKIN_BIN to the activeskin binary")
+    return path
 
 
 def ball(frame):
@@ -22,7 +33,8 @@ def ball(frame):
     odd frames, with temperature = 300 + 50 x (float32 values, as a PLY holds them)."""
     g = np.mgrid[-5:6, -5:6, -5:6].reshape(3, -1).T.astype(np.float32) * (2 * R)
     g = g[(g.astype(np.float64) ** 2).sum(1) <= (10 * R) ** 2 + 1e-9]
-    p = (g * np.array([1, 1 - 0.02 * frame, 1], np.float32) + np.array([0.03 * frame, 0, 0], np.float32)).astype(np.float32)
+    squash = np.array([1, 1 - 0.02 * frame, 1], np.float32)
+    p = (g * squash + np.array([0.03 * frame, 0, 0], np.float32)).astype(np.float32)
     ids = np.arange(len(p), dtype=np.int32)
     if frame % 2:
         p, ids = p[::-1].copy(), ids[::-1].copy()
@@ -31,7 +43,8 @@ def ball(frame):
 
 
 def write_ply(path, p, ids, temperature):
-    rows = np.zeros(len(p), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("id", "<i4"), ("temperature", "<f4")])
+    rows = np.zeros(len(p), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("id", "<i4"),
+                                   ("temperature", "<f4")])
     rows["x"], rows["y"], rows["z"] = p[:, 0], p[:, 1], p[:, 2]
     rows["id"], rows["temperature"] = ids, temperature
     header = (
@@ -43,10 +56,10 @@ def write_ply(path, p, ids, temperature):
     path.write_bytes(header.encode() + rows.tobytes())
 
 
-def same_meshes_as_the_command(binary, scratch):
-    data, cli, ours = scratch / "data", scratch / "cli", scratch / "ours"
+def test_handed_arrays_make_the_commands_meshes(binary, tmp_path):
+    data, cli, ours = tmp_path / "data", tmp_path / "cli", tmp_path / "ours"
     for d in (data, cli, ours):
-        d.mkdir(parents=True, exist_ok=True)
+        d.mkdir()
     frames = range(1, 5)
     for f in frames:
         write_ply(data / f"p.{f:04d}.ply", *ball(f))
@@ -73,38 +86,68 @@ def same_meshes_as_the_command(binary, scratch):
         mesh.save(ours / f"m.{f:04d}.ply")
         a, b = (ours / f"m.{f:04d}.ply").read_bytes(), (cli / f"m.{f:04d}.ply").read_bytes()
         assert a == b, f"frame {f}: the Python mesh differs from the command's"
-    print(f"same meshes as the command on {len(frames)} frames")
 
 
-def bad_arguments_raise_value_error():
+def test_the_demo_splash_read_and_skinned_in_python_is_the_commands(binary, tmp_path):
+    """The drop-and-splash sample as the demo dresses it (α = 48), read with
+    read_particles: the OBJ meshes byte for byte the command's."""
+    cli, ours = tmp_path / "cli", tmp_path / "ours"
+    ours.mkdir()
+    subprocess.run(
+        [binary, "particles", "--particles", str(SPLASH / "drop.####.ply"), "--radius", "0.04",
+         "--alpha", "48", "--mesh", str(cli / "m.####.obj"), "-q"],
+        check=True,
+    )
+    skin = activeskin.ParticleSkin(0.04, alpha=48)
+    frames = sorted(int(p.name.split(".")[1]) for p in SPLASH.glob("drop.*.ply"))
+    assert len(frames) == 36
+    for f in frames:
+        read = activeskin.read_particles(SPLASH / f"drop.{f:04d}.ply")
+        assert read["positions"].dtype == np.float32
+        mesh = skin.advance(read["positions"], velocities=read["velocities"], ids=read["ids"])
+        mesh.save(ours / f"m.{f:04d}.obj")
+        assert (ours / f"m.{f:04d}.obj").read_bytes() == (cli / f"m.{f:04d}.obj").read_bytes(), f
+
+
+def test_the_arrays_are_the_rust_buffers_handed_over():
+    skin = activeskin.ParticleSkin(R, attributes=["all"])
+    p, ids, temperature = ball(1)
+    mesh = skin.advance(p, ids=ids, attributes={"temperature": temperature})
+    arrays = [mesh.vertices, mesh.triangles, mesh.normals, mesh.velocities,
+              mesh.attributes["temperature"]]
+    for a in arrays:
+        # Not copied into numpy's own memory: the Rust vector is the array's buffer,
+        # kept alive by its base.
+        assert not a.flags.owndata and type(a.base).__name__ == "PySliceContainer", a.base
+        assert a.flags.c_contiguous
+    bases = {id(a.base) for a in arrays}
+    assert len(bases) == len(arrays), "arrays share one buffer"
+
+
+def test_bad_arguments_raise_value_error_with_the_commands_message():
     for kwargs, text in [
         (dict(radius=-1.0), "--radius must be a positive number"),
         (dict(radius=R, voxel_size=1.0), "coarser than the particles' kernel"),
         (dict(radius=R, fps=0.0), "frame rate must be a positive number"),
     ]:
-        try:
+        with pytest.raises(ValueError, match=text.replace("(", r"\(")):
             activeskin.ParticleSkin(**kwargs)
-        except ValueError as e:
-            assert text in str(e), str(e)
-        else:
-            raise AssertionError(f"{kwargs} accepted")
     skin = activeskin.ParticleSkin(R, attributes=["age"])
     p, ids, _ = ball(1)
-    for call, text in [
-        (lambda: skin.advance(p[:, :2]), "(n, 3)"),
-        (lambda: skin.advance(p, ids=ids[:5]), "one per particle"),
-        (lambda: skin.advance(p, ids=ids), "no particle attribute 'age'"),
-    ]:
-        try:
-            call()
-        except ValueError as e:
-            assert text in str(e), str(e)
-        else:
-            raise AssertionError(f"accepted: {text}")
-    print("bad arguments raise ValueError")
+    with pytest.raises(ValueError, match=r"\(n, 3\)"):
+        skin.advance(p[:, :2])
+    with pytest.raises(ValueError, match="one per particle"):
+        skin.advance(p, ids=ids[:5])
+    with pytest.raises(ValueError, match="no particle attribute 'age'"):
+        skin.advance(p, ids=ids)
+    # Stopped by the error: said so, not a hang.
+    with pytest.raises(RuntimeError, match="stopped"):
+        skin.advance(p, ids=ids)
+    with pytest.raises(ValueError):
+        activeskin.read_particles(ROOT / "README.md")
 
 
-def the_gil_is_released_while_a_frame_computes():
+def test_a_python_thread_keeps_running_while_a_frame_computes():
     counted = [0]
     stop = threading.Event()
 
@@ -113,23 +156,15 @@ def the_gil_is_released_while_a_frame_computes():
             counted[0] += 1
 
     skin = activeskin.ParticleSkin(R / 2)
-    p, ids, _ = ball(1)
-    p = np.concatenate([p, p + [0.5, 0, 0]]) / 1.0
+    p, _, _ = ball(1)
+    p = np.concatenate([p, p + [0.5, 0, 0]])
     thread = threading.Thread(target=count)
     thread.start()
     start = time.perf_counter()
     skin.advance(p)
     seconds = time.perf_counter() - start
-    before = counted[0]
+    during = counted[0]
     stop.set()
     thread.join()
     # Counting runs all along the frame (the GIL released), not only between calls.
-    assert before > 1000, f"{before} counts in {seconds:.2f} s"
-    print(f"GIL released: {before} counts while a {seconds:.2f} s frame computed")
-
-
-if __name__ == "__main__":
-    binary, scratch = sys.argv[1], pathlib.Path(sys.argv[2])
-    same_meshes_as_the_command(binary, scratch)
-    bad_arguments_raise_value_error()
-    the_gil_is_released_while_a_frame_computes()
+    assert during > 1000, f"{during} counts in {seconds:.2f} s"
