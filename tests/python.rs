@@ -130,12 +130,31 @@ fn the_blender_addon_bakes_a_falling_particle_system_and_resumes() {
     )
     .unwrap();
     let cache = dir.path().join("cache");
+    // The command's meshes of the demo splash, to compare the add-on's with.
+    let splash = root.join("data/splash/drop.####.ply");
+    let cli = dir.path().join("cli/m.####.obj");
+    assert_ok(&common::activeskin(&[
+        "particles",
+        "--particles",
+        splash.to_str().unwrap(),
+        "--radius",
+        "0.04",
+        "--alpha",
+        "48",
+        "--mesh",
+        cli.to_str().unwrap(),
+        "-q",
+    ]));
+    let render = dir.path().join("splash.0016.png");
     let run = Command::new("blender")
         .args(["-b", "--factory-startup", "--python"])
         .arg(root.join("blender/tests/test_addon.py"))
         .arg("--")
         .arg(dir.path().join("addon"))
         .arg(&cache)
+        .arg(&splash)
+        .arg(dir.path().join("cli/m.{frame:04d}.obj"))
+        .arg(&render)
         .output()
         .expect("blender (make blender-test installs it)");
     let printed = String::from_utf8_lossy(&run.stdout);
