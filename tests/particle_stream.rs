@@ -69,6 +69,7 @@ fn spec() -> StreamSpec {
         hold_volume: true,
         velocities: true,
         first_frame: 1,
+        reference: None,
     }
 }
 

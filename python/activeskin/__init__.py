@@ -11,6 +11,83 @@ surfaces, byte for byte.
 (3, dtype('uint32'))
 """
 
+import glob
+import os
+import re
+
 from ._activeskin import Mesh, ParticleSkin, __version__, read_particles
 
-__all__ = ["Mesh", "ParticleSkin", "__version__", "read_particles"]
+__all__ = ["Mesh", "ParticleSkin", "__version__", "particles_sequence", "read_particles"]
+
+_NUMBER = re.compile(r"#+|%0?(\d*)d")
+
+
+def _frame_path(pattern, frame):
+    """A frame's file: ``####`` (or ``%04d``) padded to its width, ``#`` (or ``%d``) not."""
+
+    def number(m):
+        width = len(m.group()) if m.group().startswith("#") else int(m.group(1) or 1)
+        return str(frame).zfill(width) if frame >= 0 else "-" + str(-frame).zfill(width)
+
+    return _NUMBER.sub(number, os.fspath(pattern), count=1)
+
+
+def _frames_found(pattern):
+    pattern = os.fspath(pattern)
+    m = _NUMBER.search(pattern)
+    if m is None:
+        raise ValueError(f"pattern '{pattern}' has no frame number (#### or %04d)")
+    head, tail = pattern[: m.start()], pattern[m.end() :]
+    found = []
+    matcher = re.compile(re.escape(os.path.basename(head)) + r"(-?\d+)" + re.escape(tail) + "$")
+    for path in glob.glob(glob.escape(head) + "*" + glob.escape(tail)):
+        hit = matcher.match(os.path.basename(path)) if os.sep not in tail else None
+        if hit:
+            found.append(int(hit.group(1)))
+    return sorted(set(found))
+
+
+def particles_sequence(pattern, radius, *, frames=None, mesh=None, progress=None,
+                       use_velocity=True, **options):
+    """The ``particles`` command as a function: skins the particle files of ``pattern``
+    (``####`` or ``%04d`` padded frame numbers, ``#`` unpadded as SPlisHSPlasH writes) over
+    ``frames`` (first, last; every frame found by default), writing each frame's mesh to
+    the ``mesh`` pattern (OBJ or PLY by extension) when given, and calling
+    ``progress(mesh)`` after each frame. ``options`` are ``ParticleSkin``'s (voxel_size,
+    alpha, beta, fps, attributes, ...). Returns the number of frames skinned; the meshes
+    are the command's, byte for byte.
+    """
+    found = _frames_found(pattern)
+    if frames is None:
+        if not found:
+            raise ValueError(f"no files match '{os.fspath(pattern)}'")
+        frames = (found[0], found[-1])
+    first, last = frames
+    if last < first:
+        raise ValueError(f"the frame range {first}-{last} is empty")
+    if mesh is not None:
+        folder = os.path.dirname(_frame_path(mesh, first))
+        if folder:
+            os.makedirs(folder, exist_ok=True)
+    # The command holds the volume the sequence's first frame stands for, also on a run
+    # of later frames.
+    if found and found[0] < first and options.get("hold_volume", True):
+        start = read_particles(_frame_path(pattern, found[0]))
+        options["volume_reference"] = (found[0], start["positions"], start["radii"])
+    skin = ParticleSkin(radius, first_frame=first, **options)
+    count = 0
+    for frame in range(first, last + 1):
+        read = read_particles(_frame_path(pattern, frame))
+        surface = skin.advance(
+            read["positions"],
+            velocities=read["velocities"] if use_velocity else None,
+            ids=read["ids"] if use_velocity else None,
+            attributes=read["attributes"] if skin.attributes else None,
+            radii=read["radii"],
+        )
+        if mesh is not None:
+            surface.save(_frame_path(mesh, frame))
+        if progress is not None:
+            progress(surface)
+        count += 1
+    return count

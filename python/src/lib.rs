@@ -234,7 +234,7 @@ struct ParticleSkin {
 #[pymethods]
 impl ParticleSkin {
     #[new]
-    #[pyo3(signature = (radius, *, voxel_size=None, alpha=4.0, beta=None, smoothing_length=2.0, iso=None, fps=24.0, velocities=true, hold_volume=true, attributes=None, first_frame=1))]
+    #[pyo3(signature = (radius, *, voxel_size=None, alpha=4.0, beta=None, smoothing_length=2.0, iso=None, fps=24.0, velocities=true, hold_volume=true, attributes=None, first_frame=1, ignore_radii=false, volume_reference=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         radius: f32,
@@ -248,6 +248,12 @@ impl ParticleSkin {
         hold_volume: bool,
         attributes: Option<Vec<String>>,
         first_frame: i64,
+        ignore_radii: bool,
+        volume_reference: Option<(
+            i64,
+            PyArrayLike2<f32, AllowTypeChange>,
+            Option<PyArrayLike1<f32, AllowTypeChange>>,
+        )>,
     ) -> PyResult<Self> {
         let defaults = ParticleInput::with_radius(radius);
         let choice = match attributes {
@@ -260,7 +266,19 @@ impl ParticleSkin {
             iso: iso.unwrap_or_else(|| fluid_iso(smoothing_length)),
             dx: voxel_size.unwrap_or(defaults.dx),
             attributes: choice.clone(),
+            ignore_radii,
             ..defaults
+        };
+        let reference = match volume_reference {
+            Some((frame, positions, radii)) => Some((
+                frame,
+                Particles {
+                    positions: points("volume_reference positions", &positions)?,
+                    radii: radii.map(|r| r.as_array().to_vec()),
+                    ..Particles::default()
+                },
+            )),
+            None => None,
         };
         let dx = particles.dx;
         let speed = SpeedParams::default_for(dx, alpha);
@@ -279,6 +297,7 @@ impl ParticleSkin {
             hold_volume,
             velocities,
             first_frame,
+            reference,
         };
         let stream = ParticleStream::start(spec).map_err(value_error)?;
         Ok(ParticleSkin {
@@ -294,11 +313,12 @@ impl ParticleSkin {
     ///
     /// `positions` is `(n, 3)`; `velocities` `(n, 3)` (world units per second) and `ids`
     /// `(n,)` when the simulation has them — particles matched by id carry the skin by
-    /// their own displacements; `attributes` maps names to `(n,)` or `(n, 3)` arrays.
+    /// their own displacements; `attributes` maps names to `(n,)` or `(n, 3)` arrays;
+    /// `radii` `(n,)` gives particles their own radius (unless `ignore_radii`).
     /// Any float dtype and any strides are accepted (converted once). The GIL is
     /// released while the frame computes; Ctrl-C raises KeyboardInterrupt (the skin
     /// cannot go on after it).
-    #[pyo3(signature = (positions, velocities=None, ids=None, attributes=None))]
+    #[pyo3(signature = (positions, velocities=None, ids=None, attributes=None, radii=None))]
     fn advance(
         &mut self,
         py: Python<'_>,
@@ -306,6 +326,7 @@ impl ParticleSkin {
         velocities: Option<PyArrayLike2<f32, AllowTypeChange>>,
         ids: Option<PyArrayLike1<i64, AllowTypeChange>>,
         attributes: Option<Bound<'_, PyDict>>,
+        radii: Option<PyArrayLike1<f32, AllowTypeChange>>,
     ) -> PyResult<Mesh> {
         if let Some(why) = &self.broken {
             return Err(PyRuntimeError::new_err(why.clone()));
@@ -322,6 +343,12 @@ impl ParticleSkin {
         if ids.as_ref().is_some_and(|i| i.len() != n) {
             return Err(PyValueError::new_err(format!(
                 "ids must have one per particle ({n})"
+            )));
+        }
+        let radii = radii.map(|r| r.as_array().to_vec());
+        if radii.as_ref().is_some_and(|r| r.len() != n) {
+            return Err(PyValueError::new_err(format!(
+                "radii must have one per particle ({n})"
             )));
         }
         let mut carried = Vec::new();
@@ -355,8 +382,8 @@ impl ParticleSkin {
             positions,
             velocities,
             ids,
+            radii,
             attributes: carried,
-            ..Particles::default()
         };
         let stream = self
             .stream

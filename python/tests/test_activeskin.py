@@ -168,3 +168,24 @@ def test_a_python_thread_keeps_running_while_a_frame_computes():
     thread.join()
     # Counting runs all along the frame (the GIL released), not only between calls.
     assert during > 1000, f"{during} counts in {seconds:.2f} s"
+
+
+def test_particles_sequence_is_the_command_with_a_progress_callback(binary, tmp_path):
+    cli = tmp_path / "cli"
+    subprocess.run(
+        [binary, "particles", "--particles", str(SPLASH / "drop.####.ply"), "--radius", "0.04",
+         "--alpha", "48", "--frames", "3-20", "--mesh", str(cli / "m.####.ply"), "-q"],
+        check=True,
+    )
+    seen = []
+    count = activeskin.particles_sequence(
+        SPLASH / "drop.####.ply", 0.04, alpha=48, frames=(3, 20),
+        mesh=tmp_path / "py" / "m.%04d.ply", progress=lambda m: seen.append(m.frame),
+    )
+    assert count == 18 and seen == list(range(3, 21))
+    for f in seen:
+        assert (tmp_path / "py" / f"m.{f:04d}.ply").read_bytes() == (cli / f"m.{f:04d}.ply").read_bytes(), f
+    # Every frame found when no range is given.
+    assert activeskin.particles_sequence(SPLASH / "drop.####.ply", 0.04, alpha=48) == 36
+    with pytest.raises(ValueError, match="no files match"):
+        activeskin.particles_sequence(tmp_path / "none.####.ply", 0.04)

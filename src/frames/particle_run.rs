@@ -105,6 +105,14 @@ impl ParticleRun<'_> {
         // with whether it carries the frame's motion, what the particles hold (their
         // number) and the attributes asked for.
         type Read = (DensityGrid, bool, f64, Option<AttributeSource>);
+        // The sequence's first frame sets the volume held: every run, chunk and resume
+        // of the shot holds the same (this run's first frame's is measured below).
+        let reference_share = match self.reference_frame() {
+            f if self.hold_volume && f != range.0 => {
+                self.volume_share(source, f, &quiet, duration)?
+            }
+            _ => None,
+        };
         let mut frame_at = |frame: i64| -> Result<Read, FrameError> {
             let Some((cloud, path)) = source.particles(frame)? else {
                 return Err(source.missing(frame));
@@ -142,12 +150,7 @@ impl ParticleRun<'_> {
         let skin = AnySkin::try_new(&first, self.params)?;
         let share = match self.hold_volume {
             false => None,
-            // The sequence's first frame sets it: every run, chunk and resume of the
-            // shot holds the same volume.
-            true => match self.reference_frame() {
-                f if f == range.0 => Some(skin.stats().volume / count),
-                f => self.volume_share(f, &quiet, duration)?,
-            },
+            true => reference_share.or(Some(skin.stats().volume / count)),
         }
         .filter(|s| s.is_finite() && *s > 0.0);
         // The loop asks for the first frame once more, for its velocity.
@@ -200,16 +203,19 @@ impl ParticleRun<'_> {
     /// keeps its volume; a liquid at rest (a simulation's first frame) has it right.
     fn volume_share(
         &self,
+        source: &mut dyn ParticleSource,
         frame: i64,
         reader: &ParticleInput,
         duration: f32,
     ) -> Result<Option<f64>, FrameError> {
-        let path = self.input.pattern.path(frame);
+        let Some((cloud, path)) = source.particles(frame)? else {
+            return Err(source.missing(frame));
+        };
         let ParticleFrame {
             mut density,
             particles,
             ..
-        } = reader.frame(&path, frame, None, duration)?;
+        } = reader.frame_of(cloud, &path, frame, None, duration)?;
         density.fill_voids(reader.void_volume());
         let volume = AnySkin::try_new(&density, self.params)?.stats().volume;
         Ok(Some(volume / held(&particles, reader)))

@@ -46,6 +46,10 @@ pub struct StreamSpec {
     pub velocities: bool,
     /// The number of the first frame handed over.
     pub first_frame: i64,
+    /// The particles of the sequence's first frame and its number, when the stream
+    /// starts later: the volume they stand for is held, as the command holds it on a
+    /// run of later frames (none: the first frame handed over's).
+    pub reference: Option<(i64, Particles)>,
 }
 
 /// A particle skin advanced by particles handed over one frame at a time.
@@ -60,10 +64,20 @@ pub struct ParticleStream {
 /// The frames the loop asks for, received from the caller in order.
 struct Handed {
     frames: Receiver<Particles>,
+    /// The sequence's first frame, before the frames handed over.
+    reference: Option<(i64, Particles)>,
 }
 
 impl ParticleSource for Handed {
     fn particles(&mut self, frame: i64) -> Result<Option<(Particles, PathBuf)>, FrameError> {
+        if let Some((f, particles)) = &self.reference {
+            if *f == frame {
+                return Ok(Some((
+                    particles.clone(),
+                    PathBuf::from(format!("frame {frame}")),
+                )));
+            }
+        }
         match self.frames.recv() {
             Ok(particles) => Ok(Some((particles, PathBuf::from(format!("frame {frame}"))))),
             // The caller is gone: the loop ends.
@@ -81,6 +95,14 @@ impl ParticleStream {
     pub fn start(spec: StreamSpec) -> Result<Self, FrameError> {
         spec.particles.check()?;
         super::check_fps(spec.fps)?;
+        if let Some((f, _)) = &spec.reference {
+            if *f >= spec.first_frame {
+                return Err(FrameError::Usage(format!(
+                    "the volume's reference frame {f} must come before the first frame, {}",
+                    spec.first_frame
+                )));
+            }
+        }
         spec.params.check()?;
         let (frames, handed) = sync_channel::<Particles>(1);
         let (send_surface, surfaces) = sync_channel::<Result<FrameSurface, FrameError>>(1);
@@ -97,7 +119,11 @@ impl ParticleStream {
                         stats: *s.stats,
                     }));
                 }));
-                if let Err(e) = run(spec, Handed { frames: handed }, sink) {
+                let source = Handed {
+                    frames: handed,
+                    reference: spec.reference.clone(),
+                };
+                if let Err(e) = run(spec, source, sink) {
                     let _ = errors.send(Err(e));
                 }
             })
@@ -170,8 +196,9 @@ impl Drop for ParticleStream {
 fn run(spec: StreamSpec, mut source: Handed, sink: SurfaceSink) -> Result<(), FrameError> {
     let first = spec.first_frame;
     let input = InputFrames {
-        pattern: FramePattern::held("particles handed over"),
-        existing: Vec::new(),
+        pattern: FramePattern::numbered("frame ", 1, ""),
+        // The reference frame, when given, is the sequence's first.
+        existing: spec.reference.iter().map(|(f, _)| *f).collect(),
         // Open-ended: the loop ends when the caller hands no more frames.
         range: (first, i64::MAX),
     };
