@@ -211,6 +211,13 @@ impl Mesh {
     }
 }
 
+/// A sequence's first frame, `(frame, positions, radii)`: the volume held.
+type Reference<'py> = (
+    i64,
+    PyArrayLike2<'py, f32, AllowTypeChange>,
+    Option<PyArrayLike1<'py, f32, AllowTypeChange>>,
+);
+
 /// A skin on a particle simulation, advanced one frame at a time by its particles —
 /// the `particles` command's frame loop, fed from memory.
 ///
@@ -249,11 +256,7 @@ impl ParticleSkin {
         attributes: Option<Vec<String>>,
         first_frame: i64,
         ignore_radii: bool,
-        volume_reference: Option<(
-            i64,
-            PyArrayLike2<f32, AllowTypeChange>,
-            Option<PyArrayLike1<f32, AllowTypeChange>>,
-        )>,
+        volume_reference: Option<Reference>,
     ) -> PyResult<Self> {
         let defaults = ParticleInput::with_radius(radius);
         let choice = match attributes {
