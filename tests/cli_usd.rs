@@ -125,37 +125,11 @@ fn assert_same_shot(a: &Path, b: &Path, what: &str) {
 fn usd_python() -> PathBuf {
     static MADE: Mutex<()> = Mutex::new(());
     let _made = MADE.lock().unwrap_or_else(|e| e.into_inner());
-    let venv = Path::new(env!("CARGO_TARGET_TMPDIR")).join("usd-venv");
-    let python = venv.join("bin/python");
-    let has_usd = |python: &Path| {
-        Command::new(python)
-            .args(["-c", "from pxr import Usd, UsdGeom, UsdValidation"])
-            .output()
-            .is_ok_and(|o| o.status.success())
-    };
-    if !has_usd(&python) {
-        let made = Command::new("python3")
-            .args(["-m", "venv", "--clear"])
-            .arg(&venv)
-            .output()
-            .expect("python3 (make deps installs python3-venv)");
-        assert_ok(&made);
-        let installed = Command::new(venv.join("bin/pip"))
-            .args([
-                "install",
-                "--quiet",
-                "--disable-pip-version-check",
-                "usd-core",
-            ])
-            .output()
-            .expect("pip");
-        assert_ok(&installed);
-        assert!(
-            has_usd(&python),
-            "usd-core installed but pxr does not import"
-        );
-    }
-    python
+    common::venv(
+        "usd-venv",
+        &["usd-core"],
+        "from pxr import Usd, UsdGeom, UsdValidation",
+    )
 }
 
 /// `tests/usd/check_shot.py` on the shot in `dir`: what it measured.

@@ -24,34 +24,9 @@ fn wheel() -> (PathBuf, PathBuf) {
     }
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let work = Path::new(env!("CARGO_TARGET_TMPDIR")).join("python");
-    let venv = work.join("venv");
-    let python = venv.join("bin/python");
-    let ready = Command::new(&python)
-        .args(["-c", "import maturin, numpy, pytest"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !ready {
-        assert_ok(
-            &Command::new("python3")
-                .args(["-m", "venv", "--clear"])
-                .arg(&venv)
-                .output()
-                .expect("python3 (make deps installs python3-venv)"),
-        );
-        assert_ok(
-            &Command::new(&python)
-                .args([
-                    "-m",
-                    "pip",
-                    "install",
-                    "--quiet",
-                    "--disable-pip-version-check",
-                ])
-                .args(["maturin>=1.5,<2", "numpy", "pytest"])
-                .output()
-                .expect("pip"),
-        );
-    }
+    let packages = ["maturin>=1.5,<2", "numpy", "pytest"];
+    let python = common::venv("python-venv", &packages, "import maturin, numpy, pytest");
+    let venv = python.parent().unwrap().parent().unwrap().to_path_buf();
     // Its own target folder: the build running this test holds the workspace's.
     let wheels = work.join("wheels");
     let _ = std::fs::remove_dir_all(&wheels);

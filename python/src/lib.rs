@@ -63,6 +63,37 @@ fn flatten(vectors: Vec<Vec3>) -> Vec<f32> {
     unsafe { Vec::from_raw_parts(ptr.cast::<f32>(), 3 * len, 3 * capacity) }
 }
 
+/// Attributes as numpy arrays by name, `(n,)` or `(n, c)`, handed over without a copy.
+fn attributes_dict(py: Python<'_>, attributes: Vec<Attribute>) -> PyResult<Bound<'_, PyDict>> {
+    let named = PyDict::new(py);
+    for a in attributes {
+        let array = match a.components {
+            1 => Array1::from_vec(a.values).into_pyarray(py).into_any(),
+            c => Array2::from_shape_vec((a.values.len() / c, c), a.values)
+                .map_err(|e| PyRuntimeError::new_err(e.to_string()))?
+                .into_pyarray(py)
+                .into_any(),
+        };
+        named.set_item(a.name, array)?;
+    }
+    Ok(named)
+}
+
+/// An attribute's array, `(n,)` or `(n, c)` of any number type: its components and its
+/// values as floats, row by row.
+fn attribute_values(array: &Bound<'_, PyAny>) -> PyResult<(usize, Vec<f32>)> {
+    match array.extract::<PyArrayLike2<f32, AllowTypeChange>>() {
+        Ok(two) => {
+            let view = two.as_array();
+            Ok((view.ncols(), view.iter().copied().collect()))
+        }
+        Err(_) => {
+            let one: PyArrayLike1<f32, AllowTypeChange> = array.extract()?;
+            Ok((1, one.as_array().to_vec()))
+        }
+    }
+}
+
 /// The surface of one frame: numpy arrays handed over without a copy.
 #[pyclass(module = "activeskin", frozen)]
 struct Mesh {
@@ -107,20 +138,7 @@ impl Mesh {
             // the allocation is `3 * capacity` `u32`, the first `3 * len` initialised.
             unsafe { Vec::from_raw_parts(ptr.cast::<u32>(), 3 * len, 3 * capacity) }
         };
-        let named = PyDict::new(py);
-        for a in attributes {
-            let array = match a.components {
-                1 => Array1::from_vec(a.values).into_pyarray(py).into_any(),
-                c => {
-                    let rows = a.values.len() / c;
-                    Array2::from_shape_vec((rows, c), a.values)
-                        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?
-                        .into_pyarray(py)
-                        .into_any()
-                }
-            };
-            named.set_item(a.name, array)?;
-        }
+        let named = attributes_dict(py, attributes)?;
         let measures = PyDict::new(py);
         measures.set_item("frame", frame)?;
         measures.set_item("time", time)?;
@@ -173,24 +191,11 @@ impl Mesh {
         let velocities = self.velocities.as_ref().map(read);
         let mut attributes = Vec::new();
         for (name, array) in self.attributes.bind(py).iter() {
-            let array: PyArrayLike2<f32, AllowTypeChange> = match array.extract() {
-                Ok(two) => two,
-                Err(_) => {
-                    let one: PyArrayLike1<f32, AllowTypeChange> = array.extract()?;
-                    let values = one.as_array().to_vec();
-                    attributes.push(Attribute {
-                        name: name.extract()?,
-                        components: 1,
-                        values,
-                    });
-                    continue;
-                }
-            };
-            let view = array.as_array();
+            let (components, values) = attribute_values(&array)?;
             attributes.push(Attribute {
                 name: name.extract()?,
-                components: view.ncols(),
-                values: view.iter().copied().collect(),
+                components,
+                values,
             });
         }
         let values = VertexValues {
@@ -358,17 +363,7 @@ impl ParticleSkin {
         if let Some(dict) = attributes {
             for (name, array) in dict.iter() {
                 let name: String = name.extract()?;
-                let (components, values) =
-                    match array.extract::<PyArrayLike2<f32, AllowTypeChange>>() {
-                        Ok(two) => (
-                            two.as_array().ncols(),
-                            two.as_array().iter().copied().collect::<Vec<f32>>(),
-                        ),
-                        Err(_) => {
-                            let one: PyArrayLike1<f32, AllowTypeChange> = array.extract()?;
-                            (1, one.as_array().to_vec())
-                        }
-                    };
+                let (components, values) = attribute_values(&array)?;
                 if !(components == 1 || components == 3) || values.len() != components * n {
                     return Err(PyValueError::new_err(format!(
                         "attribute '{name}' must be an ({n},) or ({n}, 3) array"
@@ -453,17 +448,7 @@ fn read_particles(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Bound<'_
             .radii
             .map(|r| Array1::from_vec(r).into_pyarray(py)),
     )?;
-    let named = PyDict::new(py);
-    for a in particles.attributes {
-        let array = match a.components {
-            1 => Array1::from_vec(a.values).into_pyarray(py).into_any(),
-            c => Array2::from_shape_vec((a.values.len() / c, c), a.values)
-                .map_err(|e| PyRuntimeError::new_err(e.to_string()))?
-                .into_pyarray(py)
-                .into_any(),
-        };
-        named.set_item(a.name, array)?;
-    }
+    let named = attributes_dict(py, particles.attributes)?;
     out.set_item("attributes", named)?;
     Ok(out)
 }

@@ -283,3 +283,42 @@ pub fn exr_channels(path: &Path) -> ((usize, usize), std::collections::HashMap<S
         .collect();
     ((layer.size.0, layer.size.1), channels)
 }
+
+/// A Python venv of the tests' own, `name` in the build's scratch folder, made with
+/// `packages` from pip the first time (when `probe`, a Python statement, fails in it):
+/// its Python. Nothing is installed by hand.
+pub fn venv(name: &str, packages: &[&str], probe: &str) -> std::path::PathBuf {
+    let venv = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let python = venv.join("bin/python");
+    let ready = |python: &Path| {
+        Command::new(python)
+            .args(["-c", probe])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
+    if !ready(&python) {
+        let made = Command::new("python3")
+            .args(["-m", "venv", "--clear"])
+            .arg(&venv)
+            .output()
+            .expect("python3 (make deps installs python3-venv)");
+        assert_ok(&made);
+        let installed = Command::new(&python)
+            .args([
+                "-m",
+                "pip",
+                "install",
+                "--quiet",
+                "--disable-pip-version-check",
+            ])
+            .args(packages)
+            .output()
+            .expect("pip");
+        assert_ok(&installed);
+        assert!(
+            ready(&python),
+            "{packages:?} installed, but `{probe}` fails"
+        );
+    }
+    python
+}
