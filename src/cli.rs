@@ -51,7 +51,7 @@ enum Command {
     },
     /// Dress a VDB target sequence (level sets, or fog volumes with --iso) with a skin.
     Skin(skin::SkinArgs),
-    /// Dress a particle sequence (PLY, XYZ, CSV) with a skin.
+    /// Dress a particle sequence (PLY, VTK, VTU, BGEO, VDB points, JSON, CSV, XYZ) with a skin.
     Particles(particles::ParticlesArgs),
     /// Morph a skin from one shape to another, writing a VDB (and mesh) sequence.
     Morph(morph::MorphArgs),

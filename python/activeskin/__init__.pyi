@@ -69,6 +69,12 @@ class ParticleSkin:
 
     @property
     def attributes(self) -> list[str] | None: ...
+    @property
+    def mesh(self) -> Mesh | None:
+        """The surface of the frame last advanced to."""
+    @property
+    def stats(self) -> dict[str, float | int] | None:
+        """The last frame's measures."""
 
 def read_particles(path: str | PathLike[str]) -> dict[str, object]:
     """One particle file as the command reads it (PLY, VTK, VTU, BGEO, JSON, CSV, XYZ):

@@ -241,6 +241,8 @@ struct ParticleSkin {
     attributes: AttributeChoice,
     /// Why the skin cannot go on (an interrupt mid-frame, an error).
     broken: Option<String>,
+    /// The surface of the frame last advanced to.
+    last: Option<Py<Mesh>>,
 }
 
 #[pymethods]
@@ -314,6 +316,7 @@ impl ParticleSkin {
             first_frame,
             attributes: choice,
             broken: None,
+            last: None,
         })
     }
 
@@ -335,7 +338,7 @@ impl ParticleSkin {
         ids: Option<PyArrayLike1<i64, AllowTypeChange>>,
         attributes: Option<Bound<'_, PyDict>>,
         radii: Option<PyArrayLike1<f32, AllowTypeChange>>,
-    ) -> PyResult<Mesh> {
+    ) -> PyResult<Py<Mesh>> {
         if let Some(why) = &self.broken {
             return Err(PyRuntimeError::new_err(why.clone()));
         }
@@ -410,7 +413,21 @@ impl ParticleSkin {
             }
         };
         let time = (surface.frame - self.first_frame) as f64 / self.fps;
-        Mesh::new(py, surface, time)
+        let mesh = Py::new(py, Mesh::new(py, surface, time)?)?;
+        self.last = Some(mesh.clone_ref(py));
+        Ok(mesh)
+    }
+
+    /// The surface of the frame last advanced to (None before the first).
+    #[getter]
+    fn mesh(&self, py: Python<'_>) -> Option<Py<Mesh>> {
+        self.last.as_ref().map(|m| m.clone_ref(py))
+    }
+
+    /// The last frame's measures (the `--stats` fields), None before the first.
+    #[getter]
+    fn stats(&self, py: Python<'_>) -> Option<Py<PyDict>> {
+        self.last.as_ref().map(|m| m.get().stats.clone_ref(py))
     }
 
     /// The attributes carried onto the surface: None, a list of names, or ["all"].

@@ -69,12 +69,13 @@ def test_handed_arrays_make_the_commands_meshes(binary, tmp_path):
         check=True,
     )
     skin = activeskin.ParticleSkin(R, attributes=["temperature"])
+    assert skin.mesh is None and skin.stats is None
     for f in frames:
         p, ids, temperature = ball(f)
         # float64, Fortran order, int64 ids: converted once, to the same floats.
         mesh = skin.advance(np.asfortranarray(p.astype(np.float64)), ids=ids.astype(np.int64),
                             attributes={"temperature": temperature.astype(np.float64)})
-        assert mesh.frame == f
+        assert mesh.frame == f and skin.mesh is mesh and skin.stats["frame"] == f
         assert mesh.vertices.dtype == np.float32 and mesh.vertices.shape[1] == 3
         assert mesh.triangles.dtype == np.uint32 and mesh.triangles.max() < len(mesh.vertices)
         assert mesh.velocities is not None and mesh.velocities.shape == mesh.vertices.shape
