@@ -270,3 +270,30 @@ fn broken_particle_frames_are_one_line_errors() {
         assert!(!folder.join("out/s.0002.vdb").exists(), "{what}");
     }
 }
+
+/// `--velocity-time` offers particles only what they can use: `auto` measures on level
+/// sets, so it is neither listed nor accepted (exit 2, one line).
+#[test]
+fn velocity_time_offers_particles_start_and_mid_only() {
+    let help = activeskin(&["particles", "--help"]);
+    let text = String::from_utf8_lossy(&help.stdout);
+    let listed = text.split("--velocity-time").nth(1).unwrap_or_default();
+    let listed = &listed[..listed.find("[default").unwrap_or(listed.len())];
+    assert!(
+        listed.contains("- start:") && listed.contains("- mid:"),
+        "{listed}"
+    );
+    assert!(!listed.contains("- auto:"), "{listed}");
+    let out = activeskin(&[
+        "particles",
+        "--particles",
+        "p.####.ply",
+        "--radius",
+        "0.02",
+        "--mesh",
+        "m.####.obj",
+        "--velocity-time",
+        "auto",
+    ]);
+    common::assert_usage_error(&out, "auto");
+}

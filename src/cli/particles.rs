@@ -6,7 +6,7 @@ use activeskin::frames::{AttributeChoice, OutputSpec, Outputs, ParticleInput, Pa
 use activeskin::target::{fluid_iso, DEFAULT_SMOOTHING_LENGTH};
 use anyhow::Context;
 
-use super::args::{OutputArgs, PhysicsArgs, Shot, VelocityTime};
+use super::args::{OutputArgs, PhysicsArgs, Shot};
 use super::pattern_arg;
 use super::skin::input_frames;
 
@@ -52,8 +52,8 @@ pub struct ParticlesArgs {
     /// Which frames' velocities carry the liquid from one frame to the next: `mid` (the
     /// mean of both: SPH, many sub-steps per frame) or `start` (the earlier frame's: FLIP
     /// particles). Particles carry no distance to measure it on, so no `auto`.
-    #[arg(long, value_enum, default_value_t = VelocityTime::Mid)]
-    velocity_time: VelocityTime,
+    #[arg(long, value_enum, default_value_t = ParticleTiming::Mid)]
+    velocity_time: ParticleTiming,
     /// Let the skin's volume follow the density's iso-surface, which swells on thin
     /// sheets and spray. By default the skin is held, on every frame, to the volume the
     /// particles stand for: the skin's volume on the sequence's first frame, per particle
@@ -70,6 +70,15 @@ pub struct ParticlesArgs {
     physics: PhysicsArgs,
     #[command(flatten)]
     outputs: OutputArgs,
+}
+
+/// `particles --velocity-time`: `skin`'s choices but `auto`, which measures on level sets.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ParticleTiming {
+    /// The earlier frame's velocity (FLIP particles).
+    Start,
+    /// The mean of both frames' (SPH solvers, many sub-steps per frame).
+    Mid,
 }
 
 /// What `farm` needs to cut this run into chunks.
@@ -102,10 +111,10 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     if let Err(why) = particles.check() {
         usage!("{why}");
     }
-    if args.velocity_time == VelocityTime::Auto {
-        usage!("--velocity-time auto needs level sets to measure on: give start or mid");
-    }
-    let timing = args.velocity_time.or(Timing::Mid);
+    let timing = match args.velocity_time {
+        ParticleTiming::Start => Timing::Start,
+        ParticleTiming::Mid => Timing::Mid,
+    };
     let mut input = input_frames("--particles", &args.particles, args.frames.as_deref())?;
     let write_from = input.warm_up(args.physics.warmup_frames()?);
     let params = args.physics.params(particles.dx)?;
