@@ -17,22 +17,21 @@ const R: f32 = 0.02;
 
 /// A ball of particles 2r apart, 6 spacings in radius, centred at `at`.
 fn ball(at: Vec3) -> Vec<Vec3> {
-    let mut points = Vec::new();
-    for x in -6i32..=6 {
-        for y in -6i32..=6 {
-            for z in -6i32..=6 {
-                if x * x + y * y + z * z <= 36 {
-                    points.push(at + Vec3::new(x as f32, y as f32, z as f32) * 2.0 * R);
-                }
-            }
-        }
-    }
-    points
+    common::lattice_ball(at, 2.0 * R, 6)
 }
 
 /// Kelvin, rising 50 a metre along x.
 fn temperature(p: Vec3) -> f32 {
     300.0 + 50.0 * p.x
+}
+
+/// The particles' `temperature` attribute.
+fn temperature_of(positions: &[Vec3]) -> Attribute {
+    Attribute {
+        name: "temperature".into(),
+        components: 1,
+        values: positions.iter().map(|&p| temperature(p)).collect(),
+    }
 }
 
 fn vorticity(p: Vec3) -> Vec3 {
@@ -48,11 +47,7 @@ fn write_ply_frames(dir: &Path) -> String {
         let particles = Particles {
             ids: Some((0..n as i64).collect()),
             attributes: vec![
-                Attribute {
-                    name: "temperature".into(),
-                    components: 1,
-                    values: positions.iter().map(|&p| temperature(p)).collect(),
-                },
+                temperature_of(&positions),
                 Attribute {
                     name: "foam".into(),
                     components: 1,
@@ -267,11 +262,7 @@ fn attributes_and_ids_from_vdb_points() {
         let particles = Particles {
             ids: Some((0..n as i64).map(|i| 1000 + i).collect()),
             attributes: vec![
-                Attribute {
-                    name: "temperature".into(),
-                    components: 1,
-                    values: positions.iter().map(|&p| temperature(p)).collect(),
-                },
+                temperature_of(&positions),
                 Attribute {
                     name: "vorticity".into(),
                     components: 3,

@@ -22,17 +22,7 @@ const FRAMES: i64 = 9;
 
 /// A ball of particles 2r apart, 5 spacings in radius, centred at `at`.
 fn ball(at: Vec3) -> Vec<Vec3> {
-    let mut points = Vec::new();
-    for x in -5i32..=5 {
-        for y in -5i32..=5 {
-            for z in -5i32..=5 {
-                if x * x + y * y + z * z <= 25 {
-                    points.push(at + Vec3::new(x as f32, y as f32, z as f32) * 2.0 * R);
-                }
-            }
-        }
-    }
-    points
+    common::lattice_ball(at, 2.0 * R, 5)
 }
 
 /// The ball over `FRAMES` frames, 4 voxels (r/2) a frame along x, ids in order and each

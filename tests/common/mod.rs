@@ -322,3 +322,19 @@ pub fn venv(name: &str, packages: &[&str], probe: &str) -> std::path::PathBuf {
     }
     python
 }
+
+/// Particles `spacing` apart on a lattice filling a ball `cells` spacings in radius,
+/// centred at `at`.
+pub fn lattice_ball(at: Vec3, spacing: f32, cells: i32) -> Vec<Vec3> {
+    let mut points = Vec::new();
+    for x in -cells..=cells {
+        for y in -cells..=cells {
+            for z in -cells..=cells {
+                if x * x + y * y + z * z <= cells * cells {
+                    points.push(at + Vec3::new(x as f32, y as f32, z as f32) * spacing);
+                }
+            }
+        }
+    }
+    points
+}
