@@ -9,6 +9,7 @@
 //! uninterrupted run bit for bit.
 
 mod inputs;
+mod level_sets;
 mod outputs;
 mod particle_run;
 pub mod scale;
@@ -22,15 +23,24 @@ pub use inputs::{
     auto_warmup, AttributeChoice, AttributeSource, InputFrames, ParticleFrame, ParticleInput,
     WARMUP_AUTO_FACTOR,
 };
+pub use level_sets::{
+    background_outside, check_transform, check_usable, not_finite, target_from_grid, TargetRead,
+    TargetUnits,
+};
+#[cfg(feature = "vdb")]
+pub use outputs::write_skin_vdb;
 pub use outputs::{
     OutputSpec, Outputs, Progress, Report, Surface, SurfaceSink, SurfaceValues, UsdSpec,
 };
 pub use particle_run::{ParticleRun, ParticleSource};
-pub use stream::{FrameSurface, ParticleStream, StreamSpec};
+pub use stream::{
+    FrameStream, FrameSurface, LevelSetFrame, LevelSetSpec, LevelSetStream, ParticleStream,
+    StreamSpec,
+};
 #[cfg(feature = "vdb")]
 pub use targets::{
-    background_outside, check_transform, check_usable, not_finite, read_target, read_target_in,
-    ScaleEstimate, TargetRead, TargetUnits, VelocityInput, VelocitySource, VELOCITY_NAMES,
+    read_level_set_frame, read_target, read_target_in, ScaleEstimate, VelocityInput,
+    VelocitySource, VELOCITY_NAMES,
 };
 
 use rayon::prelude::*;

@@ -64,6 +64,54 @@ impl Default for SkinParams {
     }
 }
 
+/// What a user sets of a skin's parameters, the rest defaulted on the voxel size: what
+/// every front end (the commands, Python) makes a skin's [`SkinParams`] from.
+#[derive(Debug, Clone, Copy)]
+pub struct Physics {
+    /// Δx; the input's own when not given.
+    pub voxel_size: Option<f32>,
+    pub alpha: f32,
+    /// β; [`SpeedParams::default_for`] the voxel size and α when not given.
+    pub beta: Option<f32>,
+    pub volume_gain: f32,
+    pub area_gain: f32,
+    pub precision: Precision,
+}
+
+impl Default for Physics {
+    fn default() -> Self {
+        Physics {
+            voxel_size: None,
+            alpha: speed::DEFAULT_ALPHA,
+            beta: None,
+            volume_gain: 0.0,
+            area_gain: 0.0,
+            precision: Precision::F32,
+        }
+    }
+}
+
+impl Physics {
+    /// The parameters on voxels of `voxel_size`, or of `default_dx` when not given;
+    /// unchecked ([`SkinParams::check`]).
+    pub fn params(&self, default_dx: f32) -> SkinParams {
+        let dx = self.voxel_size.unwrap_or(default_dx);
+        let defaults = SpeedParams::default_for(dx, self.alpha);
+        SkinParams {
+            dx,
+            speed: SpeedParams {
+                alpha: self.alpha,
+                beta: self.beta.unwrap_or(defaults.beta),
+                volume_gain: self.volume_gain,
+                area_gain: self.area_gain,
+                ..defaults
+            },
+            precision: self.precision,
+            ..SkinParams::default()
+        }
+    }
+}
+
 impl SkinParams {
     /// Every parameter in its range: rates and gains finite and non-negative (NaN
     /// refused), the voxel size finite and positive, the band at least the 2 voxels the

@@ -257,6 +257,90 @@ impl GridData {
     }
 }
 
+/// The leaves of a dense `dims` block of values from index (0,0,0), `values[(i·ny + j)·nz
+/// + k]` at voxel (i, j, k) (a C-ordered `(nx, ny, nz)` array): every voxel of the block
+/// active, the leaves' voxels past it inactive and `pad`.
+fn dense_leaves<T: Copy>(
+    dims: [usize; 3],
+    values: &[T],
+    pad: T,
+) -> (Vec<[i32; 3]>, Vec<T>, Vec<[u64; MASK_WORDS]>) {
+    assert_eq!(
+        values.len(),
+        dims.iter().product::<usize>(),
+        "one value per voxel"
+    );
+    let leaves = dims.map(|n| n.div_ceil(8));
+    let (mut origins, mut out, mut masks) = (Vec::new(), Vec::new(), Vec::new());
+    for li in 0..leaves[0] {
+        for lj in 0..leaves[1] {
+            for lk in 0..leaves[2] {
+                let origin = [li, lj, lk].map(|l| 8 * l);
+                let mut mask = [0u64; MASK_WORDS];
+                for n in 0..LEAF_VOXELS {
+                    let [i, j, k] = [
+                        origin[0] + (n >> 6),
+                        origin[1] + ((n >> 3) & 7),
+                        origin[2] + (n & 7),
+                    ];
+                    if i < dims[0] && j < dims[1] && k < dims[2] {
+                        out.push(values[(i * dims[1] + j) * dims[2] + k]);
+                        mask[n >> 6] |= 1 << (n & 63);
+                    } else {
+                        out.push(pad);
+                    }
+                }
+                origins.push(origin.map(|c| c as i32));
+                masks.push(mask);
+            }
+        }
+    }
+    (origins, out, masks)
+}
+
+impl GridData {
+    /// A dense block of `dims` values (C order, [`dense_leaves`]) with voxel (0,0,0) at
+    /// `transform`'s origin, as a simulation or numpy holds a grid: every voxel active.
+    /// The leaves' voxels past the block, and the background, are `outside`.
+    pub fn from_dense(
+        name: &str,
+        class: GridClass,
+        (dims, values): ([usize; 3], &[f32]),
+        transform: Transform,
+        outside: f32,
+    ) -> Self {
+        let (leaf_origins, leaf_values, leaf_masks) = dense_leaves(dims, values, outside);
+        GridData {
+            leaf_origins,
+            leaf_values,
+            leaf_masks,
+            ..GridData::empty(name, class, outside, transform)
+        }
+    }
+}
+
+impl VectorGrid {
+    /// A dense, collocated block of vectors, as [`GridData::from_dense`]; zero past it.
+    pub fn from_dense(
+        name: &str,
+        (dims, values): ([usize; 3], &[[f32; 3]]),
+        transform: Transform,
+    ) -> Self {
+        let (leaf_origins, leaf_values, leaf_masks) = dense_leaves(dims, values, [0.0; 3]);
+        VectorGrid {
+            name: name.into(),
+            staggered: false,
+            transform,
+            uniform_linear: true,
+            background: [0.0; 3],
+            leaf_origins,
+            leaf_values,
+            leaf_masks,
+            tiles: Vec::new(),
+        }
+    }
+}
+
 /// The background of a narrow band `half_width` voxels of `voxel_size` wide: the smallest
 /// f32 not below `half_width · voxel_size` computed in f64, as OpenVDB's checkLevelSet
 /// compares it (an f32 product can round a hair under 3 voxels and be rejected).

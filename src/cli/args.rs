@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use activeskin::frames::{OutputSpec, UsdSpec};
 use activeskin::grid::Precision;
-use activeskin::skin::{SkinError, SkinParams, SpeedParams};
+use activeskin::skin::{SkinError, SkinParams};
 
 use super::pattern_arg;
 use super::render::{parse_size, UpArg};
@@ -98,23 +98,18 @@ impl PhysicsArgs {
         if activeskin::frames::check_fps(self.fps).is_err() {
             usage!("--fps must be a positive number");
         }
-        let dx = self.voxel_size.unwrap_or(default_dx);
-        let defaults = SpeedParams::default_for(dx, self.alpha);
-        let params = SkinParams {
-            dx,
-            speed: SpeedParams {
-                alpha: self.alpha,
-                beta: self.beta.unwrap_or(defaults.beta),
-                volume_gain: self.volume_gain,
-                area_gain: self.area_gain,
-                ..defaults
-            },
+        let params = activeskin::skin::Physics {
+            voxel_size: self.voxel_size,
+            alpha: self.alpha,
+            beta: self.beta,
+            volume_gain: self.volume_gain,
+            area_gain: self.area_gain,
             precision: match self.precision {
                 PrecisionArg::F32 => Precision::F32,
                 PrecisionArg::Fixed16 => Precision::Fixed16,
             },
-            ..SkinParams::default()
-        };
+        }
+        .params(default_dx);
         // The library checks; the message names the option.
         params.check().map_err(|e| match e {
             SkinError::Parameter { name, value, must } => {

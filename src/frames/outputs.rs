@@ -91,6 +91,8 @@ pub struct Surface<'a> {
     pub mesh: &'a crate::mesh::Mesh,
     pub values: crate::io::mesh::VertexValues<'a>,
     pub stats: &'a StepStats,
+    /// The settled skin, as its VDB holds it.
+    pub level_set: &'a GridData,
 }
 
 /// Who is told of each frame's [`Surface`].
@@ -326,6 +328,7 @@ impl Outputs {
                 mesh: skin.mesh(),
                 values,
                 stats,
+                level_set,
             });
         }
         if let Some((pattern, size, camera)) = &mut self.render {
@@ -378,29 +381,11 @@ impl Outputs {
         // that frame without its mesh or stats line).
         #[cfg(feature = "vdb")]
         if let Some(pattern) = &self.out {
-            let grid = Grid::from_data(level_set)?;
-            let meta = vdb::frame_metadata(frame);
-            let vectors: Vec<vdb::VectorWrite> = velocities
-                .grid
-                .iter()
-                .map(|(coords, values)| vdb::VectorWrite {
-                    // Houdini's name for a velocity on geometry, which VDB Sample
-                    // copies onto a mesh's points for motion blur.
-                    name: "v",
-                    staggered: false,
-                    voxel_size: level_set.transform.voxel_size(),
-                    coords,
-                    values,
-                    // Three digits are plenty for a blur, and the file stays 1.5× the
-                    // level set's size, not 3×.
-                    half_float: true,
-                })
-                .collect();
-            vdb::write_grids_and_vectors(
+            write_skin_vdb(
                 &pattern.path(frame),
-                &[(&grid, WriteOptions::default())],
-                &vectors,
-                &meta,
+                frame,
+                level_set,
+                velocities.grid.as_ref(),
             )?;
         }
         self.tell(&Report::Frame {
@@ -645,5 +630,35 @@ fn require_extension(
             extensions.join(" or .")
         )));
     }
+    Ok(())
+}
+
+/// Writes a frame's skin as `--out` does: the settled level set as grid `surface`, with
+/// the frame's number, and its velocity at the voxels (grid `v`) when given.
+#[cfg(feature = "vdb")]
+pub fn write_skin_vdb(
+    path: &std::path::Path,
+    frame: i64,
+    level_set: &GridData,
+    velocities: Option<&VoxelVelocities>,
+) -> Result<(), FrameError> {
+    let grid = Grid::from_data(level_set)?;
+    let meta = vdb::frame_metadata(frame);
+    let vectors: Vec<vdb::VectorWrite> = velocities
+        .iter()
+        .map(|(coords, values)| vdb::VectorWrite {
+            // Houdini's name for a velocity on geometry, which VDB Sample
+            // copies onto a mesh's points for motion blur.
+            name: "v",
+            staggered: false,
+            voxel_size: level_set.transform.voxel_size(),
+            coords,
+            values,
+            // Three digits are plenty for a blur, and the file stays 1.5× the
+            // level set's size, not 3×.
+            half_float: true,
+        })
+        .collect();
+    vdb::write_grids_and_vectors(path, &[(&grid, WriteOptions::default())], &vectors, &meta)?;
     Ok(())
 }

@@ -1,8 +1,9 @@
-//! Particles handed over frame by frame (the Python API, a solver coupled in memory)
-//! through the same frame loop as `particles` on files: the loop runs on a thread of its
-//! own, asking for each frame's particles in turn ([`ParticleSource`]) and handing each
-//! frame's surface back ([`SurfaceSink`]). Same particles and parameters, same
-//! surfaces as the command, byte for byte.
+//! Frames handed over one by one (the Python API, a solver coupled in memory) through the
+//! same frame loops as the commands on files: the loop runs on a thread of its own, asking
+//! for each frame in turn and handing each frame's surface back ([`SurfaceSink`]).
+//! Particles go through `particles`' loop ([`ParticleStream`]); level sets and fog
+//! volumes through `skin`'s and `morph`'s ([`LevelSetStream`]). Same inputs and
+//! parameters, same surfaces as the commands, byte for byte.
 
 use std::path::PathBuf;
 use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender};
@@ -13,14 +14,15 @@ use std::time::Duration;
 use glam::Vec3;
 
 use super::{
-    FrameError, InputFrames, OutputSpec, Outputs, ParticleInput, ParticleRun, ParticleSource,
-    Surface, SurfaceSink,
+    target_from_grid, FrameError, FrameInput, InputFrames, OutputSpec, Outputs, ParticleInput,
+    ParticleRun, ParticleSource, Surface, SurfaceSink, TargetRead, TargetUnits,
 };
-use crate::flow::Timing;
+use crate::flow::{Flow, GridFlow, Timing};
 use crate::mesh::Mesh;
 use crate::particles::{Attribute, Particles};
 use crate::sequence::FramePattern;
-use crate::skin::{SkinParams, StepStats};
+use crate::skin::{AnySkin, Physics, SkinParams, StepStats};
+use crate::volume::{GridData, VectorGrid};
 
 /// One frame's surface, owned: what the outputs were handed.
 #[derive(Debug, Clone)]
@@ -32,6 +34,8 @@ pub struct FrameSurface {
     /// The particles' attributes at each vertex.
     pub attributes: Vec<Attribute>,
     pub stats: StepStats,
+    /// The settled skin, as its VDB holds it.
+    pub level_set: GridData,
 }
 
 /// How a stream is set up: what a `particles` run is given besides its files.
@@ -52,9 +56,9 @@ pub struct StreamSpec {
     pub reference: Option<(i64, Particles)>,
 }
 
-/// A particle skin advanced by particles handed over one frame at a time.
-pub struct ParticleStream {
-    frames: SyncSender<Particles>,
+/// A skin advanced by frames of `T` handed over one at a time.
+pub struct FrameStream<T> {
+    frames: SyncSender<T>,
     surfaces: Receiver<Result<FrameSurface, FrameError>>,
     worker: Option<JoinHandle<()>>,
     /// Why the loop ended, once it has.
@@ -90,7 +94,10 @@ impl ParticleSource for Handed {
     }
 }
 
-impl ParticleStream {
+/// A particle skin advanced by particles handed over one frame at a time.
+pub type ParticleStream = FrameStream<Particles>;
+
+impl FrameStream<Particles> {
     /// Checks `spec` and starts the loop, waiting for the first frame's particles.
     pub fn start(spec: StreamSpec) -> Result<Self, FrameError> {
         spec.particles.check()?;
@@ -104,7 +111,23 @@ impl ParticleStream {
             }
         }
         spec.params.check()?;
-        let (frames, handed) = sync_channel::<Particles>(1);
+        FrameStream::spawn(move |handed, sink| {
+            let source = Handed {
+                frames: handed,
+                reference: spec.reference.clone(),
+            };
+            run(spec, source, sink)
+        })
+    }
+}
+
+impl<T: Send + 'static> FrameStream<T> {
+    /// Runs `body` on a thread of its own, handed the frames sent and a sink for their
+    /// surfaces.
+    fn spawn(
+        body: impl FnOnce(Receiver<T>, SurfaceSink) -> Result<(), FrameError> + Send + 'static,
+    ) -> Result<Self, FrameError> {
+        let (frames, handed) = sync_channel::<T>(1);
         let (send_surface, surfaces) = sync_channel::<Result<FrameSurface, FrameError>>(1);
         let worker = std::thread::Builder::new()
             .name("activeskin frames".into())
@@ -117,18 +140,15 @@ impl ParticleStream {
                         velocities: s.values.velocities.map(<[Vec3]>::to_vec),
                         attributes: s.values.attributes.to_vec(),
                         stats: *s.stats,
+                        level_set: s.level_set.clone(),
                     }));
                 }));
-                let source = Handed {
-                    frames: handed,
-                    reference: spec.reference.clone(),
-                };
-                if let Err(e) = run(spec, source, sink) {
+                if let Err(e) = body(handed, sink) {
                     let _ = errors.send(Err(e));
                 }
             })
             .map_err(|e| FrameError::Data(format!("cannot start the frame loop: {e}")))?;
-        Ok(ParticleStream {
+        Ok(FrameStream {
             frames,
             surfaces,
             worker: Some(worker),
@@ -136,13 +156,13 @@ impl ParticleStream {
         })
     }
 
-    /// Hands over the next frame's particles; its surface comes from [`ParticleStream::wait`].
-    pub fn send(&mut self, particles: Particles) -> Result<(), FrameError> {
+    /// Hands over the next frame; its surface comes from [`FrameStream::wait`].
+    pub fn send(&mut self, frame: T) -> Result<(), FrameError> {
         if let Some(why) = &self.ended {
             return Err(FrameError::Data(why.clone()));
         }
         self.frames
-            .send(particles)
+            .send(frame)
             .map_err(|_| self.end("the frame loop has stopped"))
     }
 
@@ -163,9 +183,9 @@ impl ParticleStream {
         }
     }
 
-    /// [`ParticleStream::send`], then [`ParticleStream::wait`] until the surface is ready.
-    pub fn advance(&mut self, particles: Particles) -> Result<FrameSurface, FrameError> {
-        self.send(particles)?;
+    /// [`FrameStream::send`], then [`FrameStream::wait`] until the surface is ready.
+    pub fn advance(&mut self, frame: T) -> Result<FrameSurface, FrameError> {
+        self.send(frame)?;
         loop {
             if let Some(surface) = self.wait(Duration::from_secs(3600))? {
                 return Ok(surface);
@@ -179,7 +199,7 @@ impl ParticleStream {
     }
 }
 
-impl Drop for ParticleStream {
+impl<T> Drop for FrameStream<T> {
     fn drop(&mut self) {
         // Closing the frames' channel ends the loop at its next frame.
         let (closed, _) = sync_channel(0);
@@ -202,21 +222,7 @@ fn run(spec: StreamSpec, mut source: Handed, sink: SurfaceSink) -> Result<(), Fr
         // Open-ended: the loop ends when the caller hands no more frames.
         range: (first, i64::MAX),
     };
-    let outputs = OutputSpec {
-        out: None,
-        mesh: None,
-        render: None,
-        up: Default::default(),
-        stats: None,
-        resume: false,
-        progress: None,
-        stats_fields: Default::default(),
-        reads: Vec::new(),
-        velocities: spec.velocities,
-        usd: None,
-        surfaces: Some(sink),
-    };
-    let mut outputs = Outputs::new(&outputs, (first, i64::MAX))?;
+    let mut outputs = sink_outputs(sink, spec.velocities, first)?;
     let run = ParticleRun {
         input: &input,
         particles: &spec.particles,
@@ -227,4 +233,133 @@ fn run(spec: StreamSpec, mut source: Handed, sink: SurfaceSink) -> Result<(), Fr
         hold_volume: spec.hold_volume,
     };
     run.run_from(&mut source, &mut outputs, &mut |_| {})
+}
+
+/// Outputs that hand each frame's surface to `sink` (with the surface's velocity where
+/// `velocities`), from frame `first` on, and write nothing.
+fn sink_outputs(sink: SurfaceSink, velocities: bool, first: i64) -> Result<Outputs, FrameError> {
+    let spec = OutputSpec {
+        out: None,
+        mesh: None,
+        render: None,
+        up: Default::default(),
+        stats: None,
+        resume: false,
+        progress: None,
+        stats_fields: Default::default(),
+        reads: Vec::new(),
+        velocities,
+        usd: None,
+        surfaces: Some(sink),
+    };
+    Outputs::new(&spec, (first, i64::MAX))
+}
+
+/// One frame of a level-set (or fog) target, as `skin` reads it from a file.
+#[derive(Debug, Clone)]
+pub struct LevelSetFrame {
+    /// The target: a level set, or a fog volume read at [`LevelSetSpec::iso`].
+    pub grid: GridData,
+    /// The material's velocity then, in world units per second.
+    pub velocity: Option<VectorGrid>,
+    /// Names the frame in messages (its file, or "frame N").
+    pub label: PathBuf,
+}
+
+/// How a [`LevelSetStream`] is set up: what `skin` (or `morph`) is given besides its
+/// files.
+#[derive(Debug, Clone)]
+pub struct LevelSetSpec {
+    /// The voxel size, when not given, is the first target's.
+    pub physics: Physics,
+    pub fps: f64,
+    /// Which frames' velocities carry the skin over an interval.
+    pub timing: Timing,
+    /// The density of a fog volume's surface.
+    pub iso: Option<f32>,
+    /// What the level sets' distances are in.
+    pub units: TargetUnits,
+    /// The surface's velocity at the vertices.
+    pub velocities: bool,
+    /// The number of the first frame handed over.
+    pub first_frame: i64,
+    /// Seed the skin where the target has material it has none near (`skin`: a
+    /// simulation); `false` follows by attraction alone (`morph`).
+    pub seed: bool,
+    /// The shape the skin starts on (`skin --init`, `morph --from`), instead of the first
+    /// frame's target.
+    pub init: Option<LevelSetFrame>,
+}
+
+/// A skin advanced by level sets (or fog volumes) handed over one frame at a time.
+pub type LevelSetStream = FrameStream<LevelSetFrame>;
+
+impl FrameStream<LevelSetFrame> {
+    /// Checks `spec` and starts the loop, waiting for the first frame's target.
+    pub fn start(spec: LevelSetSpec) -> Result<Self, FrameError> {
+        super::check_fps(spec.fps)?;
+        // Checked now, on any voxel size, so that a bad α fails here, not at frame 1.
+        spec.physics
+            .params(spec.physics.voxel_size.unwrap_or(1.0))
+            .check()?;
+        FrameStream::spawn(move |handed, sink| run_level_sets(spec, handed, sink))
+    }
+}
+
+/// The loop of [`LevelSetStream`]: `skin`'s on the handed frames, writing to `sink`.
+fn run_level_sets(
+    spec: LevelSetSpec,
+    handed: Receiver<LevelSetFrame>,
+    sink: SurfaceSink,
+) -> Result<(), FrameError> {
+    let next = || {
+        handed
+            .recv()
+            .map_err(|_| FrameError::Data("no more frames".into()))
+    };
+    let fps = spec.fps;
+    let read = |frame: LevelSetFrame| -> Result<(TargetRead, Option<GridFlow>), FrameError> {
+        let flow = frame
+            .velocity
+            .map(|v| {
+                GridFlow::new(&v, 1.0, 1.0 / fps).map_err(|source| FrameError::Velocity {
+                    path: frame.label.clone(),
+                    source,
+                })
+            })
+            .transpose()?;
+        let target = target_from_grid(&frame.label, frame.grid, spec.iso, spec.units)?;
+        Ok((target, flow))
+    };
+    let input = |(target, flow): (TargetRead, Option<GridFlow>)| FrameInput {
+        target: target.target,
+        flow: flow.map(|f| Box::new(f) as Box<dyn Flow>),
+        carried: None,
+        seed: spec.seed,
+        volume: None,
+        attributes: None,
+    };
+    let first = spec.first_frame;
+    // Kept to be read again: the loop asks for the first frame once or twice.
+    let first_target = next()?;
+    let (target, _) = read(first_target.clone())?;
+    let params = spec.physics.params(target.dx);
+    params.check()?;
+    let skin = match spec.init.clone() {
+        Some(init) => AnySkin::try_new(&*read(init)?.0.target, params)?,
+        None => AnySkin::try_new(&*target.target, params)?,
+    };
+    drop(target);
+    let mut outputs = sink_outputs(sink, spec.velocities, first)?;
+    super::run(
+        (first, i64::MAX),
+        first,
+        skin,
+        (fps, spec.timing),
+        &mut outputs,
+        |frame| match frame == first {
+            true => read(first_target.clone()).map(input),
+            false => read(next()?).map(input),
+        },
+    )
 }

@@ -1,29 +1,18 @@
 //! VDB inputs: level-set and fog targets checked and read, in world units, and the
 //! velocity grids beside them with their scale and timing measured.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::Vec3;
-use rayon::prelude::*;
 
+use super::level_sets::{target_from_grid, to_world_units, TargetRead, TargetUnits};
 use super::scale::{self, ScaleFit};
-use super::{FrameError, InputFrames};
+use super::{FrameError, InputFrames, LevelSetFrame};
 use crate::flow::{Flow, GridFlow, Mean, Timing};
 use crate::sequence::FramePattern;
-use crate::target::{FogTarget, LevelSetTarget, Target};
+use crate::target::{LevelSetTarget, Target};
 use crate::vdb::{self, Grid};
-use crate::volume::{units, GridClass, GridData};
-
-/// What a level set target's distances are measured in (`--target-units`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum TargetUnits {
-    /// Measured from |∇φ| across the zero crossing; rescaled when not 1 per world unit.
-    #[default]
-    Auto,
-    World,
-    /// Voxels, as Mantaflow's `phi`.
-    Voxel,
-}
+use crate::volume::{GridClass, GridData, VectorGrid};
 
 /// A target read from a VDB file (a level set, or a fog volume at density `iso`), and its
 /// voxel size; level sets in other units rescaled to world units ([`TargetUnits::Auto`]).
@@ -35,15 +24,6 @@ pub fn read_target(
     read_target_in(path, grid, iso, TargetUnits::Auto).map(|read| (read.target, read.dx))
 }
 
-/// A target as [`read_target_in`] reads it.
-pub struct TargetRead {
-    pub target: Box<dyn Target>,
-    /// The grid's voxel size.
-    pub dx: f32,
-    /// What was done to the level set's distances, when anything was.
-    pub note: Option<String>,
-}
-
 /// [`read_target`] with the level set's `units` given, and a line saying what was done to
 /// its distances, when anything was.
 pub fn read_target_in(
@@ -52,159 +32,8 @@ pub fn read_target_in(
     iso: Option<f32>,
     units: TargetUnits,
 ) -> Result<TargetRead, FrameError> {
-    let mut data = Grid::read(path, grid)?.to_data()?;
-    check_usable(path, &data)?;
-    // An empty grid is a frame without liquid (an emitter not started yet, a pool drained):
-    // all outside, the skin goes on toward it.
-    let dx = data.transform.voxel_size() as f32;
-    let note = match data.class {
-        GridClass::LevelSet => to_world_units(&mut data, units),
-        _ => None,
-    };
-    let target: Box<dyn Target> = match (data.class, iso) {
-        (GridClass::LevelSet, _) => Box::new(LevelSetTarget::new(&data)),
-        (_, Some(iso)) if iso.is_finite() => Box::new(FogTarget::new(&data, iso)),
-        (_, Some(iso)) => {
-            return Err(FrameError::Usage(format!(
-                "--iso must be a number, got {iso}"
-            )))
-        }
-        (_, None) => {
-            return Err(FrameError::Usage(format!(
-                "{}: grid '{}' is not a level set: give --iso, the density of its surface",
-                path.display(),
-                data.name
-            )))
-        }
-    };
-    Ok(TargetRead { target, dx, note })
-}
-
-/// A factor as a person reads it: 4 significant digits, in scientific notation when far
-/// from 1 (a factor of 1e-30 printed as 0.0000 said nothing).
-fn readable(k: f64) -> String {
-    if (1e-3..1e4).contains(&k.abs()) {
-        format!("{k:.4}")
-    } else {
-        format!("{k:.3e}")
-    }
-}
-
-/// Makes a level set's distances world units, and a background of 0 (a dense grid, as
-/// Mantaflow writes) outside; says what it did.
-fn to_world_units(data: &mut GridData, units: TargetUnits) -> Option<String> {
-    let dx = data.transform.voxel_size() as f32;
-    let name = data.name.clone();
-    let ratio = |k: f64| (0.7..1.43).contains(&k);
-    let (scale, mut note) = match units {
-        TargetUnits::World => (1.0, None),
-        TargetUnits::Voxel => (dx, None),
-        TargetUnits::Auto => match units::gradient_per_world_unit(data) {
-            Some(k) if ratio(k) => (1.0, None),
-            Some(k) if ratio(k * f64::from(dx)) => (
-                dx,
-                Some(format!(
-                    "grid '{name}': distances in voxels (|∇φ| {k:.1} per world unit, Δx = {dx}); rescaled to world units (--target-units world keeps them)"
-                )),
-            ),
-            Some(k) => (
-                (1.0 / k) as f32,
-                Some(format!(
-                    "grid '{name}': |∇φ| is {} per world unit, not 1; distances rescaled by {} (--target-units world keeps them)",
-                    readable(k),
-                    readable(1.0 / k)
-                )),
-            ),
-            None => (1.0, None),
-        },
-    };
-    if scale != 1.0 {
-        units::rescale(data, scale);
-    }
-    if let Some(line) = background_outside(data) {
-        note = Some(match note {
-            Some(n) => format!("{n}; {line}"),
-            None => line,
-        });
-    }
-    note
-}
-
-/// A level set whose background is not outside (0, as Mantaflow's dense `phi`): beyond its
-/// voxels is taken as outside, as far as its farthest stored distance, so that liquid
-/// touching the domain's walls is closed there; says so.
-pub fn background_outside(data: &mut GridData) -> Option<String> {
-    if data.background > 0.0 {
-        return data.tiles_within_leaves().is_some().then(|| {
-            format!(
-                "grid '{}': inside tiles reach past its active voxels (a band left open, then flood-filled); closed where the voxels end",
-                data.name
-            )
-        });
-    }
-    let dx = data.transform.voxel_size() as f32;
-    let outside = data
-        .leaf_values
-        .iter()
-        .chain(data.tiles.iter().map(|t| &t.value))
-        .fold(3.0 * dx, |m, &v| m.max(v));
-    let line = format!(
-        "grid '{}': background {} taken as {outside} (outside) beyond its voxels",
-        data.name, data.background
-    );
-    data.background = outside;
-    Some(line)
-}
-
-/// What any grid we sample or mesh must be: uniform voxels and finite values.
-pub fn check_usable(path: &Path, data: &GridData) -> Result<(), FrameError> {
-    check_transform(path, data)?;
-    let finite = data.background.is_finite()
-        && data.leaf_values.par_iter().all(|v| v.is_finite())
-        && data.tiles.iter().all(|t| t.value.is_finite());
-    if !finite {
-        return Err(not_finite(path, data));
-    }
-    Ok(())
-}
-
-/// The transform half of [`check_usable`], for a caller that reads every value anyway:
-/// cubic voxels, and leaves near enough the origin for 32-bit positions to resolve them.
-pub fn check_transform(path: &Path, data: &GridData) -> Result<(), FrameError> {
-    if !data.uniform_linear {
-        return Err(FrameError::Data(format!(
-            "{}: grid '{}' has a non-uniform or non-linear transform; resample it to cubic voxels",
-            path.display(),
-            data.name
-        )));
-    }
-    let dx = data.transform.voxel_size();
-    let farthest = data
-        .leaf_origins
-        .iter()
-        .flat_map(|o| {
-            [0.0, 8.0].map(|d| data.transform.index_to_world(o.map(|c| f64::from(c) + d)))
-        })
-        .flat_map(|p| p.map(f64::abs))
-        .fold(0.0, f64::max);
-    if farthest / dx > f64::from(crate::grid::REACH_VOXELS) {
-        return Err(FrameError::Data(format!(
-            "{}: grid '{}' lies {farthest:.4e} from the origin, {:.2e} voxels of {dx:.3e}: past 2^20 voxels, 32-bit positions do not resolve a voxel; move it nearer the origin or use larger voxels",
-            path.display(),
-            data.name,
-            farthest / dx
-        )));
-    }
-    Ok(())
-}
-
-/// The error of a grid holding a value that is not a finite number.
-pub fn not_finite(path: &Path, data: &GridData) -> FrameError {
-    FrameError::Data(format!(
-        "{}: grid '{}' holds NaN or infinite values",
-        path.display(),
-        data.name
-    ))
+    let data = Grid::read(path, grid)?.to_data()?;
+    target_from_grid(path, data, iso, units)
 }
 
 /// Where a frame's velocity comes from.
@@ -243,6 +72,22 @@ impl VelocityInput {
         frame_time: f64,
         note: &mut dyn FnMut(String),
     ) -> Result<Option<GridFlow>, FrameError> {
+        let Some((path, grid)) = self.grid(target_file, frame, note)? else {
+            return Ok(None);
+        };
+        GridFlow::new(&grid, self.scale, frame_time)
+            .map(Some)
+            .map_err(|source| FrameError::Velocity { path, source })
+    }
+
+    /// The velocity grid of `frame` ([`VelocityInput::flow`]) and the file it is in,
+    /// unscaled.
+    pub fn grid(
+        &self,
+        target_file: &Path,
+        frame: i64,
+        note: &mut dyn FnMut(String),
+    ) -> Result<Option<(PathBuf, VectorGrid)>, FrameError> {
         let path = match &self.files {
             Some(pattern) => pattern.path(frame),
             None => target_file.to_path_buf(),
@@ -302,10 +147,30 @@ impl VelocityInput {
                 path.display()
             )));
         }
-        GridFlow::new(&grid, self.scale, frame_time)
-            .map(Some)
-            .map_err(|source| FrameError::Velocity { path, source })
+        Ok(Some((path, grid)))
     }
+}
+
+/// One frame of a level-set or fog target from a VDB file, with its velocity grid as
+/// `velocity` says (in the file's units), as [`super::LevelSetStream`] takes it: `skin`
+/// reads the same grids.
+pub fn read_level_set_frame(
+    path: &Path,
+    grid: Option<&str>,
+    velocity: VelocitySource,
+) -> Result<LevelSetFrame, FrameError> {
+    let data = Grid::read(path, grid)?.to_data()?;
+    let input = VelocityInput {
+        source: velocity,
+        files: None,
+        scale: 1.0,
+    };
+    let velocity = input.grid(path, 0, &mut |_| {})?.map(|(_, v)| v);
+    Ok(LevelSetFrame {
+        grid: data,
+        velocity,
+        label: path.to_path_buf(),
+    })
 }
 
 /// The velocity's scale as measured by [`VelocityInput::measure_scale`].
