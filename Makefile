@@ -4,7 +4,7 @@
 CARGO ?= cargo
 OUT ?= out
 
-.PHONY: all deps build demo test farm-test blender-test bench lint soak fuzz wheel blender-addon clean
+.PHONY: all deps build demo test farm-test blender-test bench lint soak fuzz wheel wheel-vdb blender-addon clean
 
 all: build
 
@@ -68,6 +68,12 @@ wheel:
 	@command -v maturin >/dev/null || python3 -m pip install --user "maturin>=1.5,<2"
 	maturin build --release -m python/Cargo.toml -o target/wheels
 
+# The wheel with OpenVDB (VDB files in LevelSetSkin, save_vdb, skin_sequence), linked to
+# the system's libopenvdb (not bundled: for machines that have it), in target/wheels-vdb.
+wheel-vdb: deps
+	@command -v maturin >/dev/null || python3 -m pip install --user "maturin>=1.5,<2"
+	maturin build --release -m python/Cargo.toml --features vdb --auditwheel skip -o target/wheels-vdb
+
 # The add-on as one zip with the wheel inside: Blender 3.x installs it from Preferences >
 # Add-ons > Install; 4.2+ as an extension (the manifest lists the wheel).
 blender-addon: wheel
@@ -84,6 +90,7 @@ lint:
 	$(CARGO) clippy --release --all-targets -- -D warnings
 	$(CARGO) clippy --release --no-default-features --lib --tests -- -D warnings
 	$(CARGO) clippy --release -p activeskin-python --all-targets -- -D warnings
+	$(CARGO) clippy --release -p activeskin-python --features vdb --all-targets -- -D warnings
 
 clean:
 	$(CARGO) clean

@@ -24,8 +24,8 @@ pub use inputs::{
     WARMUP_AUTO_FACTOR,
 };
 pub use level_sets::{
-    background_outside, check_transform, check_usable, not_finite, target_from_grid, TargetRead,
-    TargetUnits,
+    background_outside, check_transform, check_usable, dense_grid, not_finite, target_from_grid,
+    TargetRead, TargetUnits,
 };
 #[cfg(feature = "vdb")]
 pub use outputs::write_skin_vdb;

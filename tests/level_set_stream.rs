@@ -6,9 +6,9 @@
 mod common;
 
 use activeskin::flow::Timing;
-use activeskin::frames::{LevelSetFrame, LevelSetSpec, LevelSetStream, TargetUnits};
+use activeskin::frames::{dense_grid, LevelSetFrame, LevelSetSpec, LevelSetStream, TargetUnits};
 use activeskin::skin::Physics;
-use activeskin::volume::{GridClass, GridData, Transform};
+use activeskin::volume::{GridClass, GridData};
 use glam::Vec3;
 
 fn spec() -> LevelSetSpec {
@@ -16,6 +16,7 @@ fn spec() -> LevelSetSpec {
         physics: Physics::default(),
         fps: 24.0,
         timing: Timing::Start,
+        velocity_scale: 1.0,
         iso: None,
         units: TargetUnits::Auto,
         velocities: false,
@@ -39,6 +40,10 @@ fn dense(n: usize, dx: f32, origin: Vec3, f: impl Fn(Vec3) -> f32) -> Vec<f32> {
     values
 }
 
+fn at(origin: Vec3) -> [f64; 3] {
+    origin.to_array().map(f64::from)
+}
+
 fn frame(grid: GridData) -> LevelSetFrame {
     LevelSetFrame {
         grid,
@@ -59,22 +64,17 @@ fn off_sphere(mesh: &activeskin::mesh::Mesh, center: Vec3, radius: f32, dx: f32)
 
 #[test]
 fn a_dense_level_set_in_voxels_is_skinned_onto_its_sphere() {
-    let (n, dx) = (40, 0.05f32);
+    // Not a whole number of leaves: the leaves' voxels past the block are outside.
+    let (n, dx) = (43, 0.05f32);
     let origin = Vec3::splat(-1.0);
-    let (center, radius) = (Vec3::new(0.02, -0.03, 0.01), 0.6);
+    // Off centre along each axis differently: a transposed block would miss it by voxels.
+    let (center, radius) = (Vec3::new(0.15, -0.1, 0.05), 0.55);
     // Distances in voxels, as Mantaflow's phi: rescaled to world units by themselves.
     let values = dense(n, dx, origin, |p| ((p - center).length() - radius) / dx);
-    let transform = Transform::uniform(f64::from(dx), origin.to_array().map(f64::from));
     let mut stream = LevelSetStream::start(spec()).unwrap();
     let mut last = None;
     for f in 1..=12 {
-        let grid = GridData::from_dense(
-            "phi",
-            GridClass::LevelSet,
-            ([n; 3], &values),
-            transform,
-            0.0,
-        );
+        let grid = dense_grid(GridClass::LevelSet, ([n; 3], &values), dx, at(origin)).unwrap();
         let surface = stream.advance(frame(grid)).unwrap();
         assert_eq!(surface.frame, f);
         assert_eq!(surface.stats.euler_characteristic, 2);
@@ -88,21 +88,39 @@ fn a_dense_level_set_in_voxels_is_skinned_onto_its_sphere() {
 }
 
 #[test]
+fn a_dense_block_is_checked() {
+    let error = dense_grid(GridClass::LevelSet, ([4, 4, 4], &[0.0; 63]), 0.1, [0.0; 3])
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("needs 64 values, got 63"), "{error}");
+    let error = dense_grid(GridClass::LevelSet, ([4, 4, 4], &[0.0; 64]), -0.1, [0.0; 3])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("voxel size must be a positive number"),
+        "{error}"
+    );
+    // A NaN is refused by the frame, as in a file.
+    let mut values = vec![1.0; 64];
+    values[9] = f32::NAN;
+    let grid = dense_grid(GridClass::LevelSet, ([4, 4, 4], &values), 0.1, [0.0; 3]).unwrap();
+    let error = LevelSetStream::start(spec())
+        .unwrap()
+        .advance(frame(grid))
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("holds NaN or infinite values"), "{error}");
+}
+
+#[test]
 fn a_dense_fog_volume_is_read_at_its_iso() {
-    let (n, dx) = (32, 0.05f32);
+    let (n, dx) = (33, 0.05f32);
     let origin = Vec3::splat(-0.8);
     // Density 1 inside a ball of 0.5, fading linearly over 0.2: iso 0.5 is radius 0.6.
     let values = dense(n, dx, origin, |p| {
         (1.0 - (p.length() - 0.5) / 0.2).clamp(0.0, 1.0)
     });
-    let transform = Transform::uniform(f64::from(dx), origin.to_array().map(f64::from));
-    let grid = GridData::from_dense(
-        "density",
-        GridClass::FogVolume,
-        ([n; 3], &values),
-        transform,
-        0.0,
-    );
+    let grid = dense_grid(GridClass::FogVolume, ([n; 3], &values), dx, at(origin)).unwrap();
     // A fog volume without its iso is refused, with the command's words.
     let mut refused = LevelSetStream::start(spec()).unwrap();
     let error = refused
@@ -128,14 +146,12 @@ fn a_dense_fog_volume_is_read_at_its_iso() {
 fn a_dense_morph_from_a_sphere_to_a_torus_ends_a_torus() {
     let (n, dx) = (48, 0.04f32);
     let origin = Vec3::splat(-0.96);
-    let transform = Transform::uniform(f64::from(dx), origin.to_array().map(f64::from));
     let sphere = dense(n, dx, origin, |p| p.length() - 0.5);
     let torus = dense(n, dx, origin, |p| {
         Vec3::new(p.truncate().length() - 0.55, p.z, 0.0).length() - 0.2
     });
-    let grid = |values: &[f32]| {
-        GridData::from_dense("phi", GridClass::LevelSet, ([n; 3], values), transform, 0.0)
-    };
+    let grid =
+        |values: &[f32]| dense_grid(GridClass::LevelSet, ([n; 3], values), dx, at(origin)).unwrap();
     let mut stream = LevelSetStream::start(LevelSetSpec {
         physics: Physics {
             alpha: 16.0,

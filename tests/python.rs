@@ -15,17 +15,32 @@ use std::sync::Mutex;
 use common::{assert_ok, scratch};
 
 /// The package's wheel, built once for the tests of this file with maturin in a venv of
-/// its own; and that venv's Python, with the wheel installed.
-fn wheel() -> (PathBuf, PathBuf) {
-    static BUILT: Mutex<Option<(PathBuf, PathBuf)>> = Mutex::new(None);
-    let mut built = BUILT.lock().unwrap_or_else(|e| e.into_inner());
+/// its own; and that venv's Python, with the wheel installed. With `vdb`, the wheel
+/// built with OpenVDB (the system's, not bundled) in a venv of its own.
+fn wheel(vdb: bool) -> (PathBuf, PathBuf) {
+    static PLAIN: Mutex<Option<(PathBuf, PathBuf)>> = Mutex::new(None);
+    static WITH_VDB: Mutex<Option<(PathBuf, PathBuf)>> = Mutex::new(None);
+    let mut built = match vdb {
+        false => PLAIN.lock(),
+        true => WITH_VDB.lock(),
+    }
+    .unwrap_or_else(|e| e.into_inner());
     if let Some(done) = built.as_ref() {
         return done.clone();
     }
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let work = Path::new(env!("CARGO_TARGET_TMPDIR")).join("python");
+    let (name, features): (&str, &[&str]) = match vdb {
+        false => ("python", &[]),
+        // Linked to the system's OpenVDB, not repaired into a manylinux wheel bundling it.
+        true => ("python-vdb", &["--features", "vdb", "--auditwheel", "skip"]),
+    };
+    let work = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
     let packages = ["maturin>=1.5,<2", "numpy", "pytest"];
-    let python = common::venv("python-venv", &packages, "import maturin, numpy, pytest");
+    let python = common::venv(
+        &format!("{name}-venv"),
+        &packages,
+        "import maturin, numpy, pytest",
+    );
     let venv = python.parent().unwrap().parent().unwrap().to_path_buf();
     // Its own target folder: the build running this test holds the workspace's.
     let wheels = work.join("wheels");
@@ -33,6 +48,7 @@ fn wheel() -> (PathBuf, PathBuf) {
     let made = Command::new(venv.join("bin/maturin"))
         .args(["build", "--release", "--quiet", "-m"])
         .arg(root.join("python/Cargo.toml"))
+        .args(features)
         .arg("-o")
         .arg(&wheels)
         .env("CARGO_TARGET_DIR", work.join("target"))
@@ -64,15 +80,11 @@ fn wheel() -> (PathBuf, PathBuf) {
     built.clone().unwrap()
 }
 
-#[test]
-fn the_wheel_skins_numpy_particles_as_the_command_does() {
+/// Runs the pytest suite with `python`.
+fn pytest(python: &Path) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let (wheel, python) = wheel();
-    let megabytes = std::fs::metadata(&wheel).unwrap().len() as f64 / 1e6;
-    println!("wheel: {megabytes:.1} MB");
-    assert!(megabytes < 15.0, "{megabytes} MB");
     let dir = scratch();
-    let run = Command::new(&python)
+    let run = Command::new(python)
         .args(["-m", "pytest", "-q", "-p", "no:cacheprovider", "--basetemp"])
         .arg(dir.path())
         .arg(root.join("python/tests"))
@@ -83,6 +95,25 @@ fn the_wheel_skins_numpy_particles_as_the_command_does() {
     assert_ok(&run);
 }
 
+#[test]
+fn the_wheel_skins_numpy_particles_and_level_sets_as_the_commands_do() {
+    let (wheel, python) = wheel(false);
+    let megabytes = std::fs::metadata(&wheel).unwrap().len() as f64 / 1e6;
+    println!("wheel: {megabytes:.1} MB");
+    assert!(megabytes < 15.0, "{megabytes} MB");
+    // No system library: the VDB tests skip, and VDB files are refused in one line.
+    pytest(&python);
+}
+
+/// The VDB half (a morph between VDB files, skin_sequence, save_vdb) on the wheel built
+/// with OpenVDB, with the rest of the suite.
+#[cfg(feature = "vdb")]
+#[test]
+fn the_wheel_with_openvdb_skins_vdb_files_as_the_commands_do() {
+    let (_, python) = wheel(true);
+    pytest(&python);
+}
+
 /// The Blender add-on (`blender/`) in Blender without a window, the wheel beside it as
 /// its zip bundles it: `make blender-test` installs Blender (Debian's, with numpy) and
 /// runs it.
@@ -90,7 +121,7 @@ fn the_wheel_skins_numpy_particles_as_the_command_does() {
 #[ignore = "needs Blender: make blender-test installs it"]
 fn the_blender_addon_bakes_a_falling_particle_system_and_resumes() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let (wheel, _) = wheel();
+    let (wheel, _) = wheel(false);
     let dir = scratch();
     let addon = dir.path().join("addon/activeskin_blender");
     std::fs::create_dir_all(addon.join("wheels")).unwrap();

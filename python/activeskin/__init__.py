@@ -1,8 +1,8 @@
-"""Active implicit skins (Desbrun & Cani 1997) on particle simulations.
+"""Active implicit skins (Desbrun & Cani 1997) on particle simulations and level sets.
 
-A skin follows the particles frame by frame, through the same frame loop as the
-``activeskin particles`` command: the same particles and parameters give the same
-surfaces, byte for byte.
+A skin follows its target frame by frame, through the same frame loops as the commands:
+``ParticleSkin`` as ``activeskin particles``, ``LevelSetSkin`` as ``activeskin skin`` (and
+``morph``). The same inputs and parameters give the same surfaces, byte for byte.
 
 >>> import numpy as np, activeskin
 >>> skin = activeskin.ParticleSkin(radius=0.02, fps=24)
@@ -15,9 +15,25 @@ import glob
 import os
 import re
 
-from ._activeskin import Mesh, ParticleSkin, __version__, read_particles
+from ._activeskin import (
+    HAS_VDB,
+    LevelSetSkin,
+    Mesh,
+    ParticleSkin,
+    __version__,
+    read_particles,
+)
 
-__all__ = ["Mesh", "ParticleSkin", "__version__", "particles_sequence", "read_particles"]
+__all__ = [
+    "HAS_VDB",
+    "LevelSetSkin",
+    "Mesh",
+    "ParticleSkin",
+    "__version__",
+    "particles_sequence",
+    "read_particles",
+    "skin_sequence",
+]
 
 _NUMBER = re.compile(r"#+|%0?(\d*)d")
 
@@ -47,6 +63,25 @@ def _frames_found(pattern):
     return sorted(set(found))
 
 
+def _frame_range(pattern, frames, found):
+    if frames is None:
+        if not found:
+            raise ValueError(f"no files match '{os.fspath(pattern)}'")
+        frames = (found[0], found[-1])
+    first, last = frames
+    if last < first:
+        raise ValueError(f"the frame range {first}-{last} is empty")
+    return first, last
+
+
+def _make_folders(first, *patterns):
+    for pattern in patterns:
+        if pattern is not None:
+            folder = os.path.dirname(_frame_path(pattern, first))
+            if folder:
+                os.makedirs(folder, exist_ok=True)
+
+
 def particles_sequence(pattern, radius, *, frames=None, mesh=None, progress=None,
                        use_velocity=True, **options):
     """The ``particles`` command as a function: skins the particle files of ``pattern``
@@ -58,17 +93,8 @@ def particles_sequence(pattern, radius, *, frames=None, mesh=None, progress=None
     are the command's, byte for byte.
     """
     found = _frames_found(pattern)
-    if frames is None:
-        if not found:
-            raise ValueError(f"no files match '{os.fspath(pattern)}'")
-        frames = (found[0], found[-1])
-    first, last = frames
-    if last < first:
-        raise ValueError(f"the frame range {first}-{last} is empty")
-    if mesh is not None:
-        folder = os.path.dirname(_frame_path(mesh, first))
-        if folder:
-            os.makedirs(folder, exist_ok=True)
+    first, last = _frame_range(pattern, frames, found)
+    _make_folders(first, mesh)
     # The command holds the volume the sequence's first frame stands for, also on a run
     # of later frames.
     if found and found[0] < first and options.get("hold_volume", True):
@@ -87,6 +113,42 @@ def particles_sequence(pattern, radius, *, frames=None, mesh=None, progress=None
         )
         if mesh is not None:
             surface.save(_frame_path(mesh, frame))
+        if progress is not None:
+            progress(surface)
+        count += 1
+    return count
+
+
+def skin_sequence(pattern, *, frames=None, mesh=None, out=None, progress=None, grid=None,
+                  velocity=None, **options):
+    """The ``skin`` command as a function: skins the VDB files of ``pattern`` (level sets,
+    or fog volumes with ``iso=``; their ``grid``, else the first float grid) over
+    ``frames`` (first, last; every frame found by default), carried by each file's
+    velocity (``velocity``: None for its ``vel``, ``v`` or ``velocity`` grid, False for
+    none, or a grid's name; world units per second times ``velocity_scale``), writing
+    each frame's mesh to the ``mesh`` pattern and its skin to the ``out`` VDB pattern when
+    given, and calling ``progress(mesh)`` after each frame. ``options`` are
+    ``LevelSetSkin``'s (voxel_size, alpha, beta, fps, velocity_time, init, ...). Returns
+    the number of frames skinned. The same frames as ``activeskin skin --velocity-scale
+    1 --velocity-time start`` (the command measures the scale and timing by default).
+    Needs a build with OpenVDB (``HAS_VDB``).
+    """
+    if not HAS_VDB:
+        raise RuntimeError(
+            "this activeskin was built without OpenVDB: build the wheel with "
+            "`maturin build --release --features vdb` to read VDB files"
+        )
+    found = _frames_found(pattern)
+    first, last = _frame_range(pattern, frames, found)
+    _make_folders(first, mesh, out)
+    skin = LevelSetSkin(first_frame=first, **options)
+    count = 0
+    for frame in range(first, last + 1):
+        surface = skin.advance(_frame_path(pattern, frame), velocity, grid=grid)
+        if mesh is not None:
+            surface.save(_frame_path(mesh, frame))
+        if out is not None:
+            skin.save_vdb(_frame_path(out, frame))
         if progress is not None:
             progress(surface)
         count += 1

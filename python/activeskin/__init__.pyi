@@ -5,6 +5,8 @@ import numpy as np
 import numpy.typing as npt
 
 __version__: str
+HAS_VDB: bool
+"""Whether this build reads and writes VDB files (built with the `vdb` feature)."""
 
 class Mesh:
     """One frame's surface; the arrays are handed over from Rust without a copy."""
@@ -75,6 +77,73 @@ class ParticleSkin:
     @property
     def stats(self) -> dict[str, float | int] | None:
         """The last frame's measures."""
+    def save_vdb(self, path: str | PathLike[str]) -> None:
+        """Writes the last frame's skin as a VDB level set (grid `surface`), as the
+        command's --out does. Needs HAS_VDB."""
+
+Target = str | PathLike[str] | npt.ArrayLike
+
+class LevelSetSkin:
+    """A skin advanced one frame at a time by level sets (Mantaflow's phi, Houdini's
+    surface) or fog volumes: the `skin` command's frame loop; `morph`'s with
+    seed=False and init."""
+
+    def __init__(
+        self,
+        *,
+        voxel_size: float | None = None,
+        alpha: float = 4.0,
+        beta: float | None = None,
+        volume_gain: float = 0.0,
+        area_gain: float = 0.0,
+        fps: float = 24.0,
+        velocities: bool = True,
+        velocity_time: str = "start",
+        velocity_scale: float = 1.0,
+        iso: float | None = None,
+        units: str = "auto",
+        first_frame: int = 1,
+        seed: bool = True,
+        init: Target | None = None,
+        spacing: float | None = None,
+        origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        grid: str | None = None,
+    ) -> None:
+        """voxel_size: the skin's, by default the first target's; alpha (1/s) the
+        attraction; beta the surface tension (default alpha·voxel²/8); velocity_time
+        "start" (FLIP, Mantaflow) or "mid" (SPH): which frames' velocities carry an
+        interval; iso: read targets as fog volumes at this density; units: what level
+        sets' distances are in ("auto" measures |∇φ|, "world", "voxel"); seed: grow the
+        skin where the target has material it has none near (False for a morph); init:
+        the shape to start on instead of the first target (its `grid`); spacing, origin:
+        where array targets' voxels are (voxel (i, j, k) at origin + (i, j, k)·spacing).
+        Raises ValueError with the command's message for parameters that cannot make a
+        skin."""
+
+    def advance(
+        self,
+        target: Target,
+        velocity: npt.ArrayLike | str | bool | None = None,
+        *,
+        spacing: float | None = None,
+        origin: tuple[float, float, float] | None = None,
+        grid: str | None = None,
+    ) -> Mesh:
+        """The next frame's target in, its surface out: a VDB file's path (its `grid`;
+        velocity None reads its vel, v or velocity grid, False none, a string that grid)
+        or an (nx, ny, nz) array (velocity an (nx, ny, nz, 3) array, world units per
+        second). Releases the GIL while the frame computes; Ctrl-C raises
+        KeyboardInterrupt."""
+
+    @property
+    def mesh(self) -> Mesh | None:
+        """The surface of the frame last advanced to."""
+    @property
+    def stats(self) -> dict[str, float | int] | None:
+        """The last frame's measures."""
+    def save_vdb(self, path: str | PathLike[str]) -> None:
+        """Writes the last frame's skin as a VDB level set (grid `surface`), as the
+        command's --out does. Needs HAS_VDB."""
 
 def read_particles(path: str | PathLike[str]) -> dict[str, object]:
     """One particle file as the command reads it (PLY, VTK, VTU, BGEO, JSON, CSV, XYZ):
@@ -103,3 +172,28 @@ def particles_sequence(
     """The `particles` command as a function: the files of `pattern` (#### or %04d padded,
     # unpadded) over `frames`, each frame's mesh written to the `mesh` pattern, progress
     called after each frame. The command's meshes, byte for byte."""
+
+def skin_sequence(
+    pattern: str | PathLike[str],
+    *,
+    frames: tuple[int, int] | None = None,
+    mesh: str | PathLike[str] | None = None,
+    out: str | PathLike[str] | None = None,
+    progress: Callable[[Mesh], object] | None = None,
+    grid: str | None = None,
+    velocity: str | bool | None = None,
+    voxel_size: float | None = None,
+    alpha: float = 4.0,
+    beta: float | None = None,
+    fps: float = 24.0,
+    velocities: bool = True,
+    velocity_time: str = "start",
+    velocity_scale: float = 1.0,
+    iso: float | None = None,
+    units: str = "auto",
+    init: Target | None = None,
+) -> int:
+    """The `skin` command as a function on VDB files (needs HAS_VDB): each frame's mesh
+    written to the `mesh` pattern, its skin to the `out` VDB pattern, progress called
+    after each frame. The command's frames with --velocity-scale 1 --velocity-time
+    start."""

@@ -6,19 +6,22 @@
 
 use std::time::Duration;
 
+use activeskin::flow::Timing;
 use activeskin::frames::{
-    AttributeChoice, FrameError, FrameSurface, ParticleInput, ParticleStream, StreamSpec,
+    dense_grid, AttributeChoice, FrameError, FrameStream, FrameSurface, LevelSetFrame,
+    LevelSetSpec, LevelSetStream, ParticleInput, ParticleStream, StreamSpec, TargetUnits,
 };
 use activeskin::io::mesh::{write_with_values, VertexValues};
 use activeskin::mesh::Mesh as SkinMesh;
 use activeskin::particles::{Attribute, Particles};
-use activeskin::skin::{SkinParams, SpeedParams};
+use activeskin::skin::Physics;
 use activeskin::target::fluid_iso;
+use activeskin::volume::{GridClass, GridData, VectorGrid};
 use glam::Vec3;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{
-    AllowTypeChange, IntoPyArray, PyArray2, PyArrayLike1, PyArrayLike2, PyArrayMethods,
-    PyUntypedArrayMethods,
+    AllowTypeChange, IntoPyArray, PyArray2, PyArrayLike1, PyArrayLike2, PyArrayLikeDyn,
+    PyArrayMethods, PyUntypedArrayMethods,
 };
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -122,13 +125,15 @@ struct Mesh {
 }
 
 impl Mesh {
-    fn new(py: Python<'_>, surface: FrameSurface, time: f64) -> PyResult<Self> {
+    /// The mesh of `surface`, and its settled skin.
+    fn new(py: Python<'_>, surface: FrameSurface, time: f64) -> PyResult<(Self, GridData)> {
         let FrameSurface {
             frame,
             mesh,
             velocities,
             attributes,
             stats,
+            level_set,
         } = surface;
         let n_triangles = mesh.triangles.len();
         let triangles: Vec<u32> = {
@@ -149,7 +154,7 @@ impl Mesh {
         measures.set_item("volume", stats.volume)?;
         measures.set_item("euler_characteristic", stats.euler_characteristic)?;
         measures.set_item("components", stats.components)?;
-        Ok(Mesh {
+        let mesh = Mesh {
             vertices: vectors_array(py, mesh.positions).unbind(),
             normals: vectors_array(py, mesh.normals).unbind(),
             triangles: Array2::from_shape_vec((n_triangles, 3), triangles)
@@ -160,7 +165,8 @@ impl Mesh {
             attributes: named.unbind(),
             frame,
             stats: measures.unbind(),
-        })
+        };
+        Ok((mesh, level_set))
     }
 }
 
@@ -216,6 +222,110 @@ impl Mesh {
     }
 }
 
+/// A skin's frame loop on its thread, and what Python sees of it.
+struct Stepper<T> {
+    /// Behind a mutex for Python's threads (`&mut self` methods reach it without locking).
+    stream: std::sync::Mutex<Option<FrameStream<T>>>,
+    fps: f64,
+    first_frame: i64,
+    /// Why the skin cannot go on (an interrupt mid-frame, an error).
+    broken: Option<String>,
+    /// The surface of the frame last advanced to.
+    last: Option<Py<Mesh>>,
+    /// Its settled skin, for `save_vdb`.
+    level_set: Option<(i64, GridData)>,
+}
+
+impl<T: Send + 'static> Stepper<T> {
+    fn new(stream: FrameStream<T>, fps: f64, first_frame: i64) -> Self {
+        Stepper {
+            stream: std::sync::Mutex::new(Some(stream)),
+            fps,
+            first_frame,
+            broken: None,
+            last: None,
+            level_set: None,
+        }
+    }
+
+    /// Refuses to go on after an interrupt or an error.
+    fn check(&self) -> PyResult<()> {
+        match &self.broken {
+            Some(why) => Err(PyRuntimeError::new_err(why.clone())),
+            None => Ok(()),
+        }
+    }
+
+    /// Hands `frame` over and waits for its surface with the GIL released, checking for
+    /// Ctrl-C every 50 ms.
+    fn advance(&mut self, py: Python<'_>, frame: T) -> PyResult<Py<Mesh>> {
+        self.check()?;
+        let stream = self
+            .stream
+            .get_mut()
+            .map_err(|_| PyRuntimeError::new_err("the skin has stopped"))?
+            .as_mut()
+            .ok_or_else(|| PyRuntimeError::new_err("the skin has stopped"))?;
+        if let Err(e) = stream.send(frame) {
+            return Err(value_error(e));
+        }
+        let surface = loop {
+            match py.detach(|| stream.wait(Duration::from_millis(50))) {
+                Ok(Some(surface)) => break surface,
+                Ok(None) => {
+                    if let Err(interrupt) = py.check_signals() {
+                        self.broken =
+                            Some("interrupted mid-frame: make a new skin to start again".into());
+                        return Err(interrupt);
+                    }
+                }
+                Err(e) => {
+                    self.broken = Some(format!("the skin stopped: {e}"));
+                    return Err(value_error(e));
+                }
+            }
+        };
+        let time = (surface.frame - self.first_frame) as f64 / self.fps;
+        let frame = surface.frame;
+        let (mesh, level_set) = Mesh::new(py, surface, time)?;
+        self.level_set = Some((frame, level_set));
+        let mesh = Py::new(py, mesh)?;
+        self.last = Some(mesh.clone_ref(py));
+        Ok(mesh)
+    }
+
+    fn mesh(&self, py: Python<'_>) -> Option<Py<Mesh>> {
+        self.last.as_ref().map(|m| m.clone_ref(py))
+    }
+
+    fn stats(&self, py: Python<'_>) -> Option<Py<PyDict>> {
+        self.last.as_ref().map(|m| m.get().stats.clone_ref(py))
+    }
+
+    #[cfg(feature = "vdb")]
+    fn save_vdb(&self, py: Python<'_>, path: &std::path::Path) -> PyResult<()> {
+        let (frame, level_set) = self
+            .level_set
+            .as_ref()
+            .ok_or_else(|| PyRuntimeError::new_err("no frame yet: advance the skin first"))?;
+        py.detach(|| activeskin::frames::write_skin_vdb(path, *frame, level_set, None))
+            .map_err(|e| pyo3::exceptions::PyOSError::new_err(e.to_string()))
+    }
+
+    #[cfg(not(feature = "vdb"))]
+    fn save_vdb(&self, _py: Python<'_>, _path: &std::path::Path) -> PyResult<()> {
+        Err(no_vdb())
+    }
+}
+
+/// The error of a VDB file asked of a wheel built without OpenVDB.
+#[cfg(not(feature = "vdb"))]
+fn no_vdb() -> PyErr {
+    PyRuntimeError::new_err(
+        "this activeskin was built without OpenVDB: build the wheel with `maturin build --release --features vdb` (needs libopenvdb-dev) to read and write VDB files",
+    )
+}
+
 /// A sequence's first frame, `(frame, positions, radii)`: the volume held.
 type Reference<'py> = (
     i64,
@@ -234,15 +344,8 @@ type Reference<'py> = (
 /// ```
 #[pyclass(module = "activeskin")]
 struct ParticleSkin {
-    /// Behind a mutex for Python's threads (`&mut self` methods reach it without locking).
-    stream: std::sync::Mutex<Option<ParticleStream>>,
-    fps: f64,
-    first_frame: i64,
+    frames: Stepper<Particles>,
     attributes: AttributeChoice,
-    /// Why the skin cannot go on (an interrupt mid-frame, an error).
-    broken: Option<String>,
-    /// The surface of the frame last advanced to.
-    last: Option<Py<Mesh>>,
 }
 
 #[pymethods]
@@ -291,17 +394,13 @@ impl ParticleSkin {
             None => None,
         };
         let dx = particles.dx;
-        let speed = SpeedParams::default_for(dx, alpha);
+        let physics = Physics {
+            alpha,
+            beta,
+            ..Physics::default()
+        };
         let spec = StreamSpec {
-            params: SkinParams {
-                dx,
-                speed: SpeedParams {
-                    alpha,
-                    beta: beta.unwrap_or(speed.beta),
-                    ..speed
-                },
-                ..SkinParams::default()
-            },
+            params: physics.params(dx),
             particles,
             fps,
             hold_volume,
@@ -311,12 +410,8 @@ impl ParticleSkin {
         };
         let stream = ParticleStream::start(spec).map_err(value_error)?;
         Ok(ParticleSkin {
-            stream: std::sync::Mutex::new(Some(stream)),
-            fps,
-            first_frame,
+            frames: Stepper::new(stream, fps, first_frame),
             attributes: choice,
-            broken: None,
-            last: None,
         })
     }
 
@@ -339,9 +434,7 @@ impl ParticleSkin {
         attributes: Option<Bound<'_, PyDict>>,
         radii: Option<PyArrayLike1<f32, AllowTypeChange>>,
     ) -> PyResult<Py<Mesh>> {
-        if let Some(why) = &self.broken {
-            return Err(PyRuntimeError::new_err(why.clone()));
-        }
+        self.frames.check()?;
         let positions = points("positions", &positions)?;
         let n = positions.len();
         let velocities = velocities.map(|v| points("velocities", &v)).transpose()?;
@@ -386,48 +479,25 @@ impl ParticleSkin {
             radii,
             attributes: carried,
         };
-        let stream = self
-            .stream
-            .get_mut()
-            .map_err(|_| PyRuntimeError::new_err("the skin has stopped"))?
-            .as_mut()
-            .ok_or_else(|| PyRuntimeError::new_err("the skin has stopped"))?;
-        if let Err(e) = stream.send(particles) {
-            return Err(value_error(e));
-        }
-        let surface = loop {
-            match py.detach(|| stream.wait(Duration::from_millis(50))) {
-                Ok(Some(surface)) => break surface,
-                Ok(None) => {
-                    if let Err(interrupt) = py.check_signals() {
-                        self.broken = Some(
-                            "interrupted mid-frame: make a new ParticleSkin to start again".into(),
-                        );
-                        return Err(interrupt);
-                    }
-                }
-                Err(e) => {
-                    self.broken = Some(format!("the skin stopped: {e}"));
-                    return Err(value_error(e));
-                }
-            }
-        };
-        let time = (surface.frame - self.first_frame) as f64 / self.fps;
-        let mesh = Py::new(py, Mesh::new(py, surface, time)?)?;
-        self.last = Some(mesh.clone_ref(py));
-        Ok(mesh)
+        self.frames.advance(py, particles)
     }
 
     /// The surface of the frame last advanced to (None before the first).
     #[getter]
     fn mesh(&self, py: Python<'_>) -> Option<Py<Mesh>> {
-        self.last.as_ref().map(|m| m.clone_ref(py))
+        self.frames.mesh(py)
     }
 
     /// The last frame's measures (the `--stats` fields), None before the first.
     #[getter]
     fn stats(&self, py: Python<'_>) -> Option<Py<PyDict>> {
-        self.last.as_ref().map(|m| m.get().stats.clone_ref(py))
+        self.frames.stats(py)
+    }
+
+    /// Writes the last frame's skin as a VDB level set (grid `surface`), as the
+    /// command's `--out` does.
+    fn save_vdb(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
+        self.frames.save_vdb(py, &path)
     }
 
     /// The attributes carried onto the surface: None, a list of names, or ["all"].
@@ -438,6 +508,271 @@ impl ParticleSkin {
             AttributeChoice::All => Some(vec!["all".into()]),
             AttributeChoice::Named(names) => Some(names.clone()),
         }
+    }
+}
+
+/// What a level set's distances are in, by name.
+fn units_named(units: &str) -> PyResult<TargetUnits> {
+    match units {
+        "auto" => Ok(TargetUnits::Auto),
+        "world" => Ok(TargetUnits::World),
+        "voxel" => Ok(TargetUnits::Voxel),
+        other => Err(PyValueError::new_err(format!(
+            "units must be 'auto', 'world' or 'voxel', got '{other}'"
+        ))),
+    }
+}
+
+/// How a target's grid is placed when it is an array.
+#[derive(Clone, Copy)]
+struct Lattice {
+    spacing: Option<f32>,
+    origin: [f64; 3],
+}
+
+/// A target as handed to `LevelSetSkin`: a VDB file's path, or a dense `(nx, ny, nz)`
+/// array of distances (or densities, `fog`) on `lattice`, with an `(nx, ny, nz, 3)`
+/// velocity array beside it.
+fn level_set_frame(
+    target: &Bound<'_, PyAny>,
+    velocity: Option<&Bound<'_, PyAny>>,
+    (lattice, fog, grid): (Lattice, bool, Option<&str>),
+    label: String,
+) -> PyResult<LevelSetFrame> {
+    if let Ok(path) = target.extract::<std::path::PathBuf>() {
+        return vdb_frame(target.py(), &path, velocity, grid);
+    }
+    let array: PyArrayLikeDyn<f32, AllowTypeChange> = target.extract().map_err(|_| {
+        PyValueError::new_err("a target is a path to a VDB file or an (nx, ny, nz) array")
+    })?;
+    let view = array.as_array();
+    let dims: [usize; 3] = view.shape().try_into().map_err(|_| {
+        PyValueError::new_err(format!(
+            "an array target must be (nx, ny, nz), got shape {:?}",
+            view.shape()
+        ))
+    })?;
+    let spacing = lattice.spacing.ok_or_else(|| {
+        PyValueError::new_err("an array target needs its voxel size: give spacing=")
+    })?;
+    // In C order whatever the array's strides.
+    let values: Vec<f32> = view.iter().copied().collect();
+    let class = match fog {
+        true => GridClass::FogVolume,
+        false => GridClass::LevelSet,
+    };
+    let grid = dense_grid(class, (dims, &values), spacing, lattice.origin).map_err(value_error)?;
+    let velocity = match velocity {
+        None => None,
+        Some(v) if v.is_none() => None,
+        Some(v) => {
+            let array: PyArrayLikeDyn<f32, AllowTypeChange> = v.extract().map_err(|_| {
+                PyValueError::new_err("an array target's velocity is an (nx, ny, nz, 3) array")
+            })?;
+            let view = array.as_array();
+            if view.shape() != [dims[0], dims[1], dims[2], 3] {
+                return Err(PyValueError::new_err(format!(
+                    "the velocity must be ({}, {}, {}, 3), as the target, got shape {:?}",
+                    dims[0],
+                    dims[1],
+                    dims[2],
+                    view.shape()
+                )));
+            }
+            let flat: Vec<f32> = view.iter().copied().collect();
+            let vectors: Vec<[f32; 3]> = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+            Some(VectorGrid::from_dense(
+                "velocity",
+                (dims, &vectors),
+                grid.transform,
+            ))
+        }
+    };
+    Ok(LevelSetFrame {
+        grid,
+        velocity,
+        label: label.into(),
+    })
+}
+
+/// A VDB file's target and velocity: `velocity` None for the file's `vel`, `v` or
+/// `velocity` grid when it has one, False for none, a name for that grid.
+#[cfg(feature = "vdb")]
+fn vdb_frame(
+    py: Python<'_>,
+    path: &std::path::Path,
+    velocity: Option<&Bound<'_, PyAny>>,
+    grid: Option<&str>,
+) -> PyResult<LevelSetFrame> {
+    use activeskin::frames::{read_level_set_frame, VelocitySource};
+    let source = match velocity {
+        None => VelocitySource::Auto,
+        Some(v) if v.is_none() => VelocitySource::Auto,
+        Some(v) => match (v.extract::<bool>(), v.extract::<String>()) {
+            (Ok(false), _) => VelocitySource::Off,
+            (_, Ok(name)) => VelocitySource::Named(name),
+            _ => {
+                return Err(PyValueError::new_err(
+                    "a VDB target's velocity is read from its file: velocity=None (its vel, v or velocity grid), False (none) or a grid's name",
+                ))
+            }
+        },
+    };
+    py.detach(|| read_level_set_frame(path, grid, source))
+        .map_err(value_error)
+}
+
+#[cfg(not(feature = "vdb"))]
+fn vdb_frame(
+    _py: Python<'_>,
+    _path: &std::path::Path,
+    _velocity: Option<&Bound<'_, PyAny>>,
+    _grid: Option<&str>,
+) -> PyResult<LevelSetFrame> {
+    Err(no_vdb())
+}
+
+/// A skin on a sequence of level sets or fog volumes — a liquid simulation's surface
+/// (Mantaflow's `phi`, Houdini's `surface`), or a morph's end shape — advanced one frame
+/// at a time: the `skin` command's frame loop (`morph`'s with `seed=False` and `init`),
+/// fed from memory.
+///
+/// ```python
+/// skin = activeskin.LevelSetSkin(spacing=0.02, origin=(-1, -1, -1), fps=24)
+/// for phi, velocity in frames:        # (nx, ny, nz) and (nx, ny, nz, 3) arrays
+///     mesh = skin.advance(phi, velocity)
+/// ```
+#[pyclass(module = "activeskin")]
+struct LevelSetSkin {
+    frames: Stepper<LevelSetFrame>,
+    lattice: Lattice,
+    fog: bool,
+    next_frame: i64,
+}
+
+#[pymethods]
+impl LevelSetSkin {
+    #[new]
+    #[pyo3(signature = (*, voxel_size=None, alpha=4.0, beta=None, volume_gain=0.0, area_gain=0.0, fps=24.0, velocities=true, velocity_time="start", velocity_scale=1.0, iso=None, units="auto", first_frame=1, seed=true, init=None, spacing=None, origin=(0.0, 0.0, 0.0), grid=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        voxel_size: Option<f32>,
+        alpha: f32,
+        beta: Option<f32>,
+        volume_gain: f32,
+        area_gain: f32,
+        fps: f64,
+        velocities: bool,
+        velocity_time: &str,
+        velocity_scale: f32,
+        iso: Option<f32>,
+        units: &str,
+        first_frame: i64,
+        seed: bool,
+        init: Option<Bound<'_, PyAny>>,
+        spacing: Option<f32>,
+        origin: (f64, f64, f64),
+        grid: Option<String>,
+    ) -> PyResult<Self> {
+        let timing = match velocity_time {
+            "start" => Timing::Start,
+            "mid" => Timing::Mid,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "velocity_time must be 'start' or 'mid', got '{other}'"
+                )))
+            }
+        };
+        let lattice = Lattice {
+            spacing,
+            origin: [origin.0, origin.1, origin.2],
+        };
+        let fog = iso.is_some();
+        let init = init
+            .map(|i| level_set_frame(&i, None, (lattice, false, grid.as_deref()), "init".into()))
+            .transpose()?;
+        let spec = LevelSetSpec {
+            physics: Physics {
+                voxel_size,
+                alpha,
+                beta,
+                volume_gain,
+                area_gain,
+                ..Physics::default()
+            },
+            fps,
+            timing,
+            velocity_scale,
+            iso,
+            units: units_named(units)?,
+            velocities,
+            first_frame,
+            seed,
+            init,
+        };
+        let stream = py
+            .detach(|| LevelSetStream::start(spec))
+            .map_err(value_error)?;
+        Ok(LevelSetSkin {
+            frames: Stepper::new(stream, fps, first_frame),
+            lattice,
+            fog,
+            next_frame: first_frame,
+        })
+    }
+
+    /// Advances the skin to the next frame's target and returns its surface.
+    ///
+    /// `target` is a path to a VDB file (a level set, or a fog volume when the skin has
+    /// an `iso`; its `grid`, else its first float grid) or an `(nx, ny, nz)` array of
+    /// signed distances (negative inside; in world units or voxels, see `units`) or of
+    /// densities, voxel (i, j, k) centred at `origin + (i, j, k) * spacing`.
+    /// `velocity` (world units per second) is an `(nx, ny, nz, 3)` array beside an
+    /// array target; for a VDB file, None reads its `vel`, `v` or `velocity` grid, False
+    /// none, a string that grid. Any float dtype and any strides are accepted.
+    #[pyo3(signature = (target, velocity=None, *, spacing=None, origin=None, grid=None))]
+    fn advance(
+        &mut self,
+        py: Python<'_>,
+        target: Bound<'_, PyAny>,
+        velocity: Option<Bound<'_, PyAny>>,
+        spacing: Option<f32>,
+        origin: Option<(f64, f64, f64)>,
+        grid: Option<String>,
+    ) -> PyResult<Py<Mesh>> {
+        self.frames.check()?;
+        let lattice = Lattice {
+            spacing: spacing.or(self.lattice.spacing),
+            origin: origin.map_or(self.lattice.origin, |o| [o.0, o.1, o.2]),
+        };
+        let frame = level_set_frame(
+            &target,
+            velocity.as_ref(),
+            (lattice, self.fog, grid.as_deref()),
+            format!("frame {}", self.next_frame),
+        )?;
+        let mesh = self.frames.advance(py, frame)?;
+        self.next_frame += 1;
+        Ok(mesh)
+    }
+
+    /// The surface of the frame last advanced to (None before the first).
+    #[getter]
+    fn mesh(&self, py: Python<'_>) -> Option<Py<Mesh>> {
+        self.frames.mesh(py)
+    }
+
+    /// The last frame's measures (the `--stats` fields), None before the first.
+    #[getter]
+    fn stats(&self, py: Python<'_>) -> Option<Py<PyDict>> {
+        self.frames.stats(py)
+    }
+
+    /// Writes the last frame's skin as a VDB level set (grid `surface`), as the
+    /// command's `--out` does.
+    fn save_vdb(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
+        self.frames.save_vdb(py, &path)
     }
 }
 
@@ -474,6 +809,9 @@ fn read_particles(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Bound<'_
 fn _activeskin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_particles, m)?)?;
     m.add_class::<ParticleSkin>()?;
+    m.add_class::<LevelSetSkin>()?;
+    // Whether VDB files can be read and written (the `vdb` feature).
+    m.add("HAS_VDB", cfg!(feature = "vdb"))?;
     m.add_class::<Mesh>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

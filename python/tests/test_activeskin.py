@@ -190,3 +190,147 @@ def test_particles_sequence_is_the_command_with_a_progress_callback(binary, tmp_
     assert activeskin.particles_sequence(SPLASH / "drop.####.ply", 0.04, alpha=48) == 36
     with pytest.raises(ValueError, match="no files match"):
         activeskin.particles_sequence(tmp_path / "none.####.ply", 0.04)
+
+
+# Level sets: LevelSetSkin and skin_sequence.
+
+MOVING = ROOT / "data" / "moving"
+needs_vdb = pytest.mark.skipif(not activeskin.HAS_VDB, reason="built without OpenVDB")
+
+
+def dense(n, spacing, origin, f):
+    """f at the centres of an (n, n, n) block of voxels, voxel (i, j, k) at
+    origin + (i, j, k) * spacing."""
+    axis = origin + spacing * np.arange(n)
+    x, y, z = np.meshgrid(axis, axis, axis, indexing="ij")
+    return f(x, y, z)
+
+
+def test_a_dense_level_set_in_voxels_is_skinned_onto_its_sphere():
+    spacing, origin = 0.05, -1.0
+    center, radius = np.array([0.15, -0.1, 0.05]), 0.55
+    # float64, Fortran order, distances in voxels as Mantaflow's phi, 43 voxels a side
+    # (not whole leaves): converted once, measured and rescaled.
+    phi = dense(43, spacing, origin, lambda x, y, z: (np.sqrt(
+        (x - center[0]) ** 2 + (y - center[1]) ** 2 + (z - center[2]) ** 2) - radius) / spacing)
+    phi = np.asfortranarray(phi)
+    skin = activeskin.LevelSetSkin(spacing=spacing, origin=(origin,) * 3)
+    for f in range(1, 13):
+        mesh = skin.advance(phi)
+        assert mesh.frame == f and mesh.stats["euler_characteristic"] == 2
+    off = np.abs(np.linalg.norm(mesh.vertices - center, axis=1) - radius).mean() / spacing
+    assert off < 0.1, f"{off} voxel from the sphere"
+    assert mesh.velocities is not None and np.abs(mesh.velocities).max() < 0.05
+
+
+def test_a_dense_morph_from_a_sphere_to_a_torus_ends_a_torus():
+    spacing, origin, n = 0.04, -0.96, 48
+    sphere = dense(n, spacing, origin, lambda x, y, z: np.sqrt(x * x + y * y + z * z) - 0.5)
+    torus = dense(n, spacing, origin,
+                  lambda x, y, z: np.sqrt((np.sqrt(x * x + y * y) - 0.55) ** 2 + z * z) - 0.2)
+    skin = activeskin.LevelSetSkin(alpha=16, seed=False, init=sphere, spacing=spacing,
+                                   origin=(origin,) * 3)
+    first = skin.advance(torus)
+    assert first.stats["euler_characteristic"] == 2, "frame 1 is the shape it starts on"
+    for _ in range(2, 49):
+        mesh = skin.advance(torus)
+    assert mesh.frame == 48 and mesh.stats["euler_characteristic"] == 0
+
+
+def test_a_dense_velocity_carries_the_skin():
+    """A sphere gliding 2 voxels a frame along x, with its velocity: the skin keeps up."""
+    spacing, origin, n, fps = 0.05, -1.0, 40, 24.0
+    speed = 2 * spacing * fps
+    skin = activeskin.LevelSetSkin(spacing=spacing, origin=(origin,) * 3, fps=fps)
+    velocity = np.zeros((n, n, n, 3), np.float32)
+    velocity[..., 0] = speed
+    for f in range(1, 13):
+        cx = -0.4 + speed * (f - 1) / fps
+        phi = dense(n, spacing, origin,
+                    lambda x, y, z: np.sqrt((x - cx) ** 2 + y * y + z * z) - 0.3)
+        mesh = skin.advance(phi, velocity)
+    lag = (mesh.vertices[:, 0].mean() - cx) / spacing
+    assert abs(lag) < 0.1, f"{lag} voxel behind"
+    assert abs(mesh.velocities[:, 0].mean() - speed) < 0.05 * speed
+
+
+def test_level_set_errors_are_value_errors_with_the_commands_message(tmp_path):
+    with pytest.raises(ValueError, match="velocity_time must be 'start' or 'mid'"):
+        activeskin.LevelSetSkin(velocity_time="auto")
+    with pytest.raises(ValueError, match="units must be"):
+        activeskin.LevelSetSkin(units="inches")
+    with pytest.raises(ValueError, match="frame rate must be a positive number"):
+        activeskin.LevelSetSkin(fps=-1)
+    skin = activeskin.LevelSetSkin()
+    with pytest.raises(ValueError, match="needs its voxel size: give spacing="):
+        skin.advance(np.zeros((8, 8, 8)))
+    skin = activeskin.LevelSetSkin(spacing=0.1)
+    with pytest.raises(ValueError, match=r"must be \(nx, ny, nz\)"):
+        skin.advance(np.zeros((8, 8)))
+    with pytest.raises(ValueError, match=r"velocity must be \(8, 8, 8, 3\)"):
+        skin.advance(np.zeros((8, 8, 8)), np.zeros((8, 8, 8)))
+    phi = np.ones((8, 8, 8))
+    phi[3, 3, 3] = np.nan
+    with pytest.raises(ValueError, match="holds NaN or infinite values"):
+        skin.advance(phi)
+    with pytest.raises(RuntimeError, match="stopped"):
+        skin.advance(phi)
+    if not activeskin.HAS_VDB:
+        with pytest.raises(RuntimeError, match="--features vdb"):
+            activeskin.LevelSetSkin().advance(MOVING / "sphere.0001.vdb")
+        with pytest.raises(RuntimeError, match="--features vdb"):
+            activeskin.skin_sequence(MOVING / "sphere.####.vdb")
+    else:
+        with pytest.raises(ValueError, match="missing.vdb"):
+            activeskin.LevelSetSkin().advance(tmp_path / "missing.vdb")
+
+
+@needs_vdb
+def test_a_vdb_morph_is_the_commands(binary, tmp_path):
+    """A morph between two VDB files (written by save_vdb from numpy level sets), as
+    LevelSetSkin(init=..., seed=False) and as `activeskin morph`: the same OBJ bytes."""
+    spacing, origin, n = 0.04, -0.96, 48
+    shapes = {
+        "from": dense(n, spacing, origin, lambda x, y, z: np.sqrt(x * x + y * y + z * z) - 0.5),
+        "to": dense(n, spacing, origin, lambda x, y, z: np.sqrt(
+            (np.sqrt(x * x + y * y) - 0.55) ** 2 + z * z) - 0.2),
+    }
+    for name, phi in shapes.items():
+        skin = activeskin.LevelSetSkin(spacing=spacing, origin=(origin,) * 3)
+        skin.advance(phi)
+        skin.save_vdb(tmp_path / f"{name}.vdb")
+    cli, ours = tmp_path / "cli", tmp_path / "ours"
+    ours.mkdir()
+    subprocess.run(
+        [binary, "morph", "--from", str(tmp_path / "from.vdb"), "--to", str(tmp_path / "to.vdb"),
+         "--alpha", "16", "--frames", "1-30", "--mesh", str(cli / "m.####.obj"), "-q"],
+        check=True,
+    )
+    skin = activeskin.LevelSetSkin(alpha=16, seed=False, init=tmp_path / "from.vdb")
+    for f in range(1, 31):
+        mesh = skin.advance(tmp_path / "to.vdb")
+        mesh.save(ours / f"m.{f:04d}.obj")
+        assert (ours / f"m.{f:04d}.obj").read_bytes() == (cli / f"m.{f:04d}.obj").read_bytes(), f
+    assert mesh.stats["euler_characteristic"] == 0
+
+
+@needs_vdb
+def test_skin_sequence_is_the_skin_command(binary, tmp_path):
+    cli = tmp_path / "cli"
+    subprocess.run(
+        [binary, "skin", "--target", str(MOVING / "sphere.####.vdb"), "--mesh",
+         str(cli / "m.####.ply"), "-q"],
+        check=True,
+    )
+    seen = []
+    count = activeskin.skin_sequence(
+        MOVING / "sphere.####.vdb", mesh=tmp_path / "py" / "m.####.ply",
+        out=tmp_path / "vdb" / "s.####.vdb", progress=lambda m: seen.append(m.frame),
+    )
+    assert count == 8 and seen == list(range(1, 9))
+    for f in seen:
+        assert (tmp_path / "py" / f"m.{f:04d}.ply").read_bytes() == (cli / f"m.{f:04d}.ply").read_bytes(), f
+        # The skins written are VDB level sets the command reads.
+        info = subprocess.run([binary, "info", str(tmp_path / "vdb" / f"s.{f:04d}.vdb")],
+                              capture_output=True, text=True, check=True).stdout
+        assert "grid 'surface'" in info and "level set" in info

@@ -9,7 +9,7 @@ use rayon::prelude::*;
 
 use super::FrameError;
 use crate::target::{FogTarget, LevelSetTarget, Target};
-use crate::volume::{units, GridClass, GridData};
+use crate::volume::{units, GridClass, GridData, Transform};
 
 /// What a level set target's distances are measured in (`--target-units`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -190,5 +190,47 @@ pub fn not_finite(path: &Path, data: &GridData) -> FrameError {
         "{}: grid '{}' holds NaN or infinite values",
         path.display(),
         data.name
+    ))
+}
+
+/// A dense block of values (C order: `values[(i·ny + j)·nz + k]` at voxel (i, j, k)), as a
+/// simulation or numpy holds a grid, voxel (0,0,0) centred at `origin`: a level set, or
+/// a fog volume's densities. Past the block is outside: a level set's padding is its
+/// largest value (at least 3 voxels), so that liquid touching the block's faces is closed
+/// there, as a Mantaflow `phi` is; a fog volume's is 0.
+pub fn dense_grid(
+    class: GridClass,
+    (dims, values): ([usize; 3], &[f32]),
+    spacing: f32,
+    origin: [f64; 3],
+) -> Result<GridData, FrameError> {
+    let voxels: usize = dims.iter().product();
+    if values.len() != voxels || voxels == 0 {
+        return Err(FrameError::Usage(format!(
+            "a grid of {dims:?} voxels needs {voxels} values, got {}",
+            values.len()
+        )));
+    }
+    if !(spacing.is_finite() && spacing > 0.0) {
+        return Err(FrameError::Usage(format!(
+            "the voxel size must be a positive number, got {spacing}"
+        )));
+    }
+    let (name, outside) = match class {
+        GridClass::LevelSet => (
+            "phi",
+            values
+                .iter()
+                .fold(3.0 * spacing, |m, &v| if v > m { v } else { m }),
+        ),
+        _ => ("density", 0.0),
+    };
+    let transform = Transform::uniform(f64::from(spacing), origin);
+    Ok(GridData::from_dense(
+        name,
+        class,
+        (dims, values),
+        transform,
+        outside,
     ))
 }

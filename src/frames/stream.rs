@@ -275,6 +275,8 @@ pub struct LevelSetSpec {
     pub fps: f64,
     /// Which frames' velocities carry the skin over an interval.
     pub timing: Timing,
+    /// What turns the velocities handed over into world units per second.
+    pub velocity_scale: f32,
     /// The density of a fog volume's surface.
     pub iso: Option<f32>,
     /// What the level sets' distances are in.
@@ -298,6 +300,12 @@ impl FrameStream<LevelSetFrame> {
     /// Checks `spec` and starts the loop, waiting for the first frame's target.
     pub fn start(spec: LevelSetSpec) -> Result<Self, FrameError> {
         super::check_fps(spec.fps)?;
+        if !spec.velocity_scale.is_finite() {
+            return Err(FrameError::Usage(format!(
+                "the velocity scale must be a number, got {}",
+                spec.velocity_scale
+            )));
+        }
         // Checked now, on any voxel size, so that a bad α fails here, not at frame 1.
         spec.physics
             .params(spec.physics.voxel_size.unwrap_or(1.0))
@@ -322,9 +330,11 @@ fn run_level_sets(
         let flow = frame
             .velocity
             .map(|v| {
-                GridFlow::new(&v, 1.0, 1.0 / fps).map_err(|source| FrameError::Velocity {
-                    path: frame.label.clone(),
-                    source,
+                GridFlow::new(&v, spec.velocity_scale, 1.0 / fps).map_err(|source| {
+                    FrameError::Velocity {
+                        path: frame.label.clone(),
+                        source,
+                    }
                 })
             })
             .transpose()?;
