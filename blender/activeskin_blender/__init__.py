@@ -78,6 +78,9 @@ class ActiveSkinSettings(bpy.types.PropertyGroup):
         name="Source",
         items=[
             ("PARTICLES", "Particle system", "The particles of an object's particle system"),
+            ("POINTS", "Object's points",
+             "The vertices of a mesh object, as Sequence Loader, Alembic or Geometry Nodes "
+             "bring particles in (with their velocity and id attributes when present)"),
             ("FILES", "Files", "A particle file sequence: PLY, VTK, VTU, BGEO, CSV"),
         ],
         default="PARTICLES",
@@ -148,6 +151,42 @@ def _particles_of(settings, scene, depsgraph):
     return location.reshape(n, 3)[keep], velocity.reshape(n, 3)[keep], ids
 
 
+def _points_of(settings, depsgraph):
+    """This frame's vertices of a mesh object as particles, in world space: positions, its
+    `velocity` point attribute (units per second, what Blender's motion blur reads) and
+    its `id` point attribute, each None when absent."""
+    source = settings.emitter
+    if source is None:
+        raise ValueError("choose the object whose points are the particles")
+    if source.type != "MESH":
+        raise ValueError(f"{source.name} is a {source.type.lower()}, not a mesh: its points cannot be read")
+    evaluated = source.evaluated_get(depsgraph)
+    mesh = evaluated.data
+    n = len(mesh.vertices)
+    co = np.empty(3 * n, np.float32)
+    mesh.vertices.foreach_get("co", co)
+    matrix = np.array(evaluated.matrix_world, np.float64)
+    linear, shift = matrix[:3, :3], matrix[:3, 3]
+    identity = np.array_equal(matrix, np.eye(4))
+    positions = co.reshape(n, 3)
+    if not identity:
+        positions = (positions.astype(np.float64) @ linear.T + shift).astype(np.float32)
+
+    def point_attribute(name, kind, field, width):
+        a = mesh.attributes.get(name)
+        if a is None or a.domain != "POINT" or a.data_type != kind:
+            return None
+        values = np.empty(width * n, np.float32 if kind != "INT" else np.int32)
+        a.data.foreach_get(field, values)
+        return values.reshape(n, width) if width > 1 else values
+
+    velocities = point_attribute("velocity", "FLOAT_VECTOR", "vector", 3)
+    if velocities is not None and not identity:
+        velocities = (velocities.astype(np.float64) @ linear.T).astype(np.float32)
+    ids = point_attribute("id", "INT", "value", 1)
+    return positions, velocities, None if ids is None else ids.astype(np.int64)
+
+
 class Bake:
     """One bake: the skin, the frames left, what to write. A bake stopped part-way
     resumes after the last whole frame of its cache, warming the skin up on the frames
@@ -194,6 +233,9 @@ class Bake:
         if s.source == "PARTICLES":
             self.scene.frame_set(frame)
             positions, velocities, ids = _particles_of(s, self.scene, context.evaluated_depsgraph_get())
+        elif s.source == "POINTS":
+            self.scene.frame_set(frame)
+            positions, velocities, ids = _points_of(s, context.evaluated_depsgraph_get())
         else:
             path = bpy.path.abspath(_frame_path(s.pattern, frame))
             read = _activeskin().read_particles(path)
@@ -373,6 +415,8 @@ class ACTIVESKIN_PT_panel(bpy.types.Panel):
         if s.source == "PARTICLES":
             layout.prop(s, "emitter")
             layout.prop(s, "particle_system")
+        elif s.source == "POINTS":
+            layout.prop(s, "emitter")
         else:
             layout.prop(s, "pattern")
         layout.prop(s, "radius")

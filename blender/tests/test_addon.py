@@ -7,14 +7,18 @@ gravity: the bake writes a mesh a frame, the display object follows the timeline
 `velocity` attribute, a bake stopped part-way resumes to the same files, and bad
 parameters are one line in Blender's report, no traceback. Then the demo splash's PLY
 sequence (SPLASH, a frame pattern) baked from files: the shown mesh at three frames is
-the command's (CLI, an OBJ pattern with {frame:04d}); frame 16 rendered with Cycles,
+the command's (CLI, an OBJ pattern with {frame:04d}), and the same from a mesh object
+whose points are the frame's particles (as Sequence Loader shows an SPH cache); frame 16
+rendered with Cycles,
 motion blur on, into RENDER (a PNG), not empty.
 """
 
+import math
 import os
 import sys
 
 import bpy
+import numpy as np
 
 parent, cache, splash, cli, render = sys.argv[sys.argv.index("--") + 1 :]
 sys.path.insert(0, parent)
@@ -102,19 +106,76 @@ def obj_vertices(path):
         return [tuple(map(float, line.split()[1:4])) for line in f if line.startswith("v ")]
 
 
-for frame in (6, 12, 24):
-    scene.frame_set(frame)
-    shown = bpy.data.objects["ActiveSkin"].data
-    theirs = obj_vertices(cli.format(frame=frame))
-    assert len(shown.vertices) == len(theirs), (frame, len(shown.vertices), len(theirs))
-    worst = max(
-        max(abs(a - b) for a, b in zip(v.co, w)) for v, w in zip(shown.vertices, theirs)
-    )
-    assert worst < 1e-5, (frame, worst)
-    print(f"splash frame {frame}: {len(theirs)} vertices, at most {worst:.1e} from the command's")
+def check_against_the_command(what):
+    for frame in (6, 12, 24):
+        scene.frame_set(frame)
+        shown = bpy.data.objects["ActiveSkin"].data
+        theirs = obj_vertices(cli.format(frame=frame))
+        assert len(shown.vertices) == len(theirs), (what, frame, len(shown.vertices), len(theirs))
+        worst = max(
+            max(abs(a - b) for a, b in zip(v.co, w)) for v, w in zip(shown.vertices, theirs)
+        )
+        assert worst < 1e-5, (what, frame, worst)
+        print(f"splash from {what}, frame {frame}: {len(theirs)} vertices, "
+              f"at most {worst:.1e} from the command's")
+
+
+check_against_the_command("its files")
+
+# The splash in the scene: a mesh object whose points are each frame's particles, with
+# their `velocity` and `id` point attributes, as Sequence Loader brings an SPH cache into
+# Blender (a frame handler loading the frame's file).
+splash_mesh = bpy.data.meshes.new("splash")
+splash_object = bpy.data.objects.new("splash", splash_mesh)
+scene.collection.objects.link(splash_object)
+
+
+def load_splash(scene, *args):
+    read = activeskin_blender._activeskin().read_particles(splash.replace("####", f"{scene.frame_current:04d}"))
+    p, v, ids = read["positions"], read["velocities"], read["ids"]
+    splash_mesh.clear_geometry()
+    for name in ("velocity", "id"):
+        if name in splash_mesh.attributes:
+            splash_mesh.attributes.remove(splash_mesh.attributes[name])
+    splash_mesh.vertices.add(len(p))
+    # Stored relative to the object, so that its transform puts them back.
+    splash_mesh.vertices.foreach_set("co", p.ravel())
+    # As in the files: velocities and ids where the frame has them.
+    if v is not None:
+        splash_mesh.attributes.new("velocity", "FLOAT_VECTOR", "POINT").data.foreach_set("vector", v.ravel())
+    if ids is not None:
+        splash_mesh.attributes.new("id", "INT", "POINT").data.foreach_set("value", ids.astype(np.int32))
+    splash_mesh.update()
+
+
+bpy.app.handlers.frame_change_pre.append(load_splash)
+s.source = "POINTS"
+s.emitter = splash_object
+s.cache_dir = os.path.join(cache, "splash_points")
+assert bpy.ops.activeskin.bake() == {"FINISHED"}
+check_against_the_command("a mesh object's points")
+# The points are read in world space (moved and turned by the object's transform), with
+# their velocity (turned) and id attributes.
+scene.frame_set(12)
+splash_object.location = (2.0, -1.0, 0.5)
+splash_object.rotation_euler = (0.0, 0.0, math.pi / 2)
+n = len(splash_mesh.vertices)
+splash_mesh.attributes.new("velocity", "FLOAT_VECTOR", "POINT").data.foreach_set(
+    "vector", np.tile(np.float32([1, 2, 3]), n))
+splash_mesh.attributes.new("id", "INT", "POINT").data.foreach_set(
+    "value", np.arange(n, dtype=np.int32)[::-1].copy())
+bpy.context.view_layer.update()
+p, v, ids = activeskin_blender._points_of(s, bpy.context.evaluated_depsgraph_get())
+local = activeskin_blender._activeskin().read_particles(splash.replace("####", "0012"))
+turned = local["positions"][:, [1, 0, 2]] * [-1, 1, 1] + [2.0, -1.0, 0.5]
+assert np.abs(p - turned).max() < 1e-5, np.abs(p - turned).max()
+assert np.abs(v - [-2, 1, 3]).max() < 1e-5, v[:3]
+assert ids.dtype == np.int64 and (ids == np.arange(n)[::-1]).all()
+print("a mesh object's points: read in world space, with velocity and id")
+bpy.app.handlers.frame_change_pre.remove(load_splash)
+splash_object.hide_render = True
 
 # Frame 16 with Cycles, motion blur on: the data's y is up, Blender's z.
-import math  # noqa: E402
 
 skin = bpy.data.objects["ActiveSkin"]
 skin.rotation_euler = (math.pi / 2, 0, 0)
@@ -148,7 +209,6 @@ scene.render.filepath = render
 scene.frame_set(16)
 bpy.ops.render.render(write_still=True)
 image = bpy.data.images.load(render)
-import numpy as np  # noqa: E402
 
 pixels = np.empty(len(image.pixels), np.float32)
 image.pixels.foreach_get(pixels)
