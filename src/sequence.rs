@@ -29,6 +29,20 @@ pub struct FramePattern {
     width: usize,
 }
 
+/// The pattern as `prefix####suffix`, one `#` a padded digit (`#` alone: unpadded), as
+/// messages name it; a held file as its path.
+impl std::fmt::Display for FramePattern {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}{}{}",
+            self.prefix,
+            "#".repeat(self.width),
+            self.suffix
+        )
+    }
+}
+
 impl FramePattern {
     /// One file standing for every frame (a static target).
     pub fn held(path: &str) -> Self {
@@ -103,7 +117,7 @@ impl FramePattern {
         (self.path(frame).to_str() == Some(path)).then_some(frame)
     }
 
-    /// Every frame whose file exists, in order.
+    /// Every frame whose file exists, in order (none when the folder does not exist).
     pub fn existing_frames(&self) -> Result<Vec<i64>, PatternError> {
         let pattern = self.path(0);
         let folder = match pattern.parent() {
@@ -111,11 +125,15 @@ impl FramePattern {
             _ => PathBuf::from("."),
         };
         let unreadable = |e: std::io::Error| PatternError::Unreadable {
-            pattern: format!("{}<frame>{}", self.prefix, self.suffix),
+            pattern: self.to_string(),
             reason: e.to_string(),
         };
         let mut frames = Vec::new();
-        for entry in std::fs::read_dir(&folder).map_err(unreadable)? {
+        let entries = match std::fs::read_dir(&folder) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(frames),
+            listed => listed.map_err(unreadable)?,
+        };
+        for entry in entries {
             let entry = entry.map_err(unreadable)?;
             let joined = match pattern.parent() {
                 Some(p) if !p.as_os_str().is_empty() => p.join(entry.file_name()),

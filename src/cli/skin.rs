@@ -260,6 +260,11 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
         })
     };
     let first_file = input.file(range.0, args.hold_missing)?;
+    // A velocity grid named on the command line is looked for on the first frame, not
+    // first missed on the second.
+    if let VelocitySource::Named(_) = velocity.source {
+        velocity.grid(&first_file, range.0, &mut |_| {})?;
+    }
     let TargetRead {
         target: first_target,
         dx,

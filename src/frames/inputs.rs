@@ -81,7 +81,13 @@ impl InputFrames {
             }
             other => other.map_err(|e| FrameError::Usage(e.to_string()))?,
         };
-        let existing = pattern.existing_frames()?;
+        // Said with the pattern as the user spelled it.
+        let existing = pattern.existing_frames().map_err(|e| match e {
+            PatternError::Unreadable { reason, .. } => FrameError::Data(format!(
+                "cannot list the folder of {flag} '{spec}': {reason}"
+            )),
+            other => other.into(),
+        })?;
         let range = match (frames, existing.first(), existing.last()) {
             (Some(range), _, _) => range,
             (None, Some(&a), Some(&b)) => (a, b),

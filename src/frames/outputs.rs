@@ -622,11 +622,9 @@ fn require_extension(
     what: &str,
     extensions: &[&str],
 ) -> Result<(), FrameError> {
-    let name = pattern.path(0);
-    if !crate::io::has_extension(&name, extensions) {
+    if !crate::io::has_extension(&pattern.path(0), extensions) {
         return Err(FrameError::Usage(format!(
-            "{flag} '{}': {what} must end in .{}",
-            name.display(),
+            "{flag} '{pattern}': {what} must end in .{}",
             extensions.join(" or .")
         )));
     }

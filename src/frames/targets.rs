@@ -92,9 +92,26 @@ impl VelocityInput {
             Some(pattern) => pattern.path(frame),
             None => target_file.to_path_buf(),
         };
+        let listed = |grids: &[(String, String)]| -> String {
+            let listed: Vec<String> = grids.iter().map(|(g, t)| format!("'{g}' ({t})")).collect();
+            match listed.is_empty() {
+                true => "none".to_string(),
+                false => listed.join(", "),
+            }
+        };
         let name = match &self.source {
             VelocitySource::Off => return Ok(None),
-            VelocitySource::Named(name) => name.clone(),
+            VelocitySource::Named(name) => {
+                let grids = vdb::grid_types(&path)?;
+                if !grids.iter().any(|(g, _)| g == name) {
+                    return Err(FrameError::Data(format!(
+                        "{}: no velocity grid named '{name}' (grids: {})",
+                        path.display(),
+                        listed(&grids)
+                    )));
+                }
+                name.clone()
+            }
             VelocitySource::Auto => {
                 let grids = vdb::grid_types(&path)?;
                 let typed = |n: &str, kinds: &[&str]| {
@@ -124,16 +141,11 @@ impl VelocityInput {
                     }
                     // Velocity files given and none holds a velocity: not silently unused.
                     None if self.files.is_some() => {
-                        let listed: Vec<String> =
-                            grids.iter().map(|(g, t)| format!("'{g}' ({t})")).collect();
                         return Err(FrameError::Data(format!(
                             "{}: no velocity grid named {} (grids: {}); name it with --velocity NAME",
                             path.display(),
                             VELOCITY_NAMES.join(", "),
-                            match listed.is_empty() {
-                                true => "none".to_string(),
-                                false => listed.join(", "),
-                            }
+                            listed(&grids)
                         )));
                     }
                     None => return Ok(None),

@@ -563,12 +563,20 @@ pub fn write_vector_grid_file(path: &Path) -> Result<(), VdbError> {
         .map_err(|e| VdbError::file(path, e.what()))
 }
 
-/// The name and tree type (e.g. `Tree_vec3s_5_4_3`) of each grid of a file, from its
+/// The name and value type (`float`, `vec3s`, as `info` names it) of each grid of a file, from its
 /// descriptors alone (nothing is decoded: cheap enough to ask every frame).
 pub fn grid_types(path: &Path) -> Result<Vec<(String, String)>, VdbError> {
     let layout = check_vdb_file(path)?;
     if layout.has_offsets {
-        return Ok(layout.grids);
+        // Named by value type, as OpenVDB's own listing below and `info` name them.
+        return Ok(layout
+            .grids
+            .into_iter()
+            .map(|(name, tree)| {
+                let kind = layout::value_type(&tree).to_string();
+                (name, kind)
+            })
+            .collect());
     }
     // Old files without a descriptor index: OpenVDB reads them to tell.
     Ok(list_grids(path)?

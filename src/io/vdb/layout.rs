@@ -81,8 +81,20 @@ fn base_name(unique: &str) -> &str {
         .map_or(unique, |(name, _)| name)
 }
 
+/// The value type a tree type holds, as OpenVDB and `info` name it: `Tree_float_5_4_3`
+/// and `Tree_float_5_4_3_HalfFloat` are `float`, `Tree_vec3s_5_4_3` is `vec3s`.
+pub fn value_type(tree: &str) -> &str {
+    let Some(rest) = tree.strip_prefix("Tree_") else {
+        return tree;
+    };
+    // The value type ends where the node sizes begin.
+    rest.match_indices('_')
+        .find(|(i, _)| rest[i + 1..].starts_with(|c: char| c.is_ascii_digit()))
+        .map_or(rest, |(i, _)| &rest[..i])
+}
+
 impl Layout {
-    /// `grids: 'a' (Tree_float_5_4_3), ...` for error messages.
+    /// `grids: 'a' (float), ...` for error messages.
     pub fn describe_grids(&self) -> String {
         if self.grids.is_empty() {
             return "the file has no grids".into();
@@ -90,7 +102,7 @@ impl Layout {
         let list: Vec<String> = self
             .grids
             .iter()
-            .map(|(name, kind)| format!("'{}' ({kind})", printable_name(name)))
+            .map(|(name, kind)| format!("'{}' ({})", printable_name(name), value_type(kind)))
             .collect();
         format!("grids: {}", list.join(", "))
     }
