@@ -604,7 +604,7 @@ fn an_unknown_output_extension_is_a_usage_error_everywhere() {
                 "--mesh",
                 "o.####.stl",
             ],
-            "o.0000.stl",
+            "o.####.stl",
         ),
     ] {
         let out = activeskin(&args);

@@ -239,7 +239,12 @@ fn velocity_named_or_in_files_of_its_own() {
         "--velocity",
         "vel",
     ]);
-    assert_fails(&result, 1, "no grid named 'vel'", "missing velocity grid");
+    assert_fails(
+        &result,
+        1,
+        "liquid.0001.vdb: no velocity grid named 'vel'",
+        "missing velocity grid",
+    );
 }
 
 #[test]

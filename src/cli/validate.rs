@@ -40,14 +40,22 @@ pub fn run(args: &ValidateArgs) -> anyhow::Result<()> {
                 format!("{}", row.tolerance),
             )
         };
+        // Why a row out of its own tolerance passes, or FAIL.
+        let verdict = match (row.within(), row.offset, row.explained, row.passes()) {
+            (true, ..) => String::new(),
+            (false, Some(offset), _, true) => {
+                format!(
+                    "  {offset:.3} voxel offset (≤ {})",
+                    validate::OFFSET_TOLERANCE
+                )
+            }
+            (false, _, Some(why), _) => format!("  expected: {why}"),
+            (false, Some(offset), _, false) => format!("  {offset:.3} voxel offset  FAIL"),
+            _ => "  FAIL".to_string(),
+        };
         println!(
-            "{:<40} {:>14.6} {:>14.6} {:>12} {:>10}{}",
-            row.name,
-            row.ours,
-            row.openvdb,
-            difference,
-            tolerance,
-            if row.passes() { "" } else { "  FAIL" }
+            "{:<40} {:>14.6} {:>14.6} {:>12} {:>10}{verdict}",
+            row.name, row.ours, row.openvdb, difference, tolerance,
         );
     }
     match (report.check.is_empty(), report.exact_flagged) {
