@@ -20,7 +20,9 @@ demo: build
 	./target/release/activeskin info $(OUT)/fig7/fig7.0048.vdb
 	@echo "demo: in ./$(OUT): fig7/ (six blobs to two spheres), orbit/ (a moving target), splash/ (a drop of particles): VDB, OBJ, EXR, a USD shot, stats"
 
+# The peer race (activeskin bench: OpenVDB's tools side by side), then the step alone.
 bench: deps
+	$(CARGO) run --release -- bench
 	$(CARGO) bench --bench step
 
 # Tests run optimised: they solve and mesh real grids. Lint first: it is the quick part.

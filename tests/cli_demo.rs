@@ -9,14 +9,28 @@ use std::process::Command;
 fn demo_writes_its_sequences() {
     let dir = common::scratch();
     let result = Command::new(env!("CARGO_BIN_EXE_activeskin"))
-        .args(["demo", "-q", "--out", dir.path().to_str().unwrap()])
+        .args(["demo", "--out", dir.path().to_str().unwrap()])
         .output()
         .unwrap();
+    let progress = String::from_utf8_lossy(&result.stdout);
     assert!(
         result.status.success(),
         "{}",
         String::from_utf8_lossy(&result.stderr)
     );
+    // Each sequence's frame lines come under its name (not on a terminal: one a frame).
+    let lines: Vec<&str> = progress.lines().collect();
+    for (name, frames) in [("fig7", 48), ("orbit", 48), ("splash", 36)] {
+        let at = lines
+            .iter()
+            .position(|l| l.starts_with(&format!("{name} (")))
+            .unwrap_or_else(|| panic!("no heading for {name}: {progress}"));
+        assert!(lines[at + 1].starts_with("frame 1:"), "{progress}");
+        assert!(
+            lines[at + frames].starts_with(&format!("frame {frames}:")),
+            "{progress}"
+        );
+    }
     for (name, components, euler) in [("fig7", 2, 4), ("orbit", 1, 2)] {
         let folder = dir.path().join(name);
         let names: Vec<String> = std::fs::read_dir(&folder)

@@ -102,6 +102,13 @@ impl Target for Orbiting {
     }
 }
 
+/// Names the sequence whose frame lines follow, unless quiet.
+fn announce(args: &DemoArgs, name: &str, what: &str) {
+    if !args.quiet {
+        println!("{name} ({}): {what}", args.out.join(name).display());
+    }
+}
+
 pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     let dx = 1.0 / 32.0;
 
@@ -109,6 +116,11 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     let skin = AnySkin::new(&Blobs::fig7_points(), fig7.params(dx)?);
     let spheres = Union::fig7_spheres();
     let out = outputs(&args.out, "fig7", args.quiet);
+    announce(
+        args,
+        "fig7",
+        "the paper's Fig. 7, six blobs pulled onto two spheres, 48 frames",
+    );
     run_frames(
         (1, 48),
         1,
@@ -123,6 +135,11 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     let moving = physics(4.0, 0.0005);
     let skin = AnySkin::new(&Orbiting { time: 0.0 }, moving.params(dx)?);
     let out = outputs(&args.out, "orbit", args.quiet);
+    announce(
+        args,
+        "orbit",
+        "a breathing sphere orbiting, carried by its motion, 48 frames",
+    );
     // An analytic velocity, exact at each frame: the mean of both ends is second order.
     run_frames(
         (1, 48),
@@ -165,6 +182,11 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
         ply::write_ply(&path, cloud)?;
     }
     let out = outputs(&args.out, "splash", args.quiet);
+    announce(
+        args,
+        "splash",
+        "a drop of particles splashing on a floor, 36 frames",
+    );
     run_frames(
         (1, clouds.len() as i64),
         1,
