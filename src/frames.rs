@@ -95,6 +95,9 @@ pub enum FrameError {
     Usage(String),
 }
 
+/// The frame rate when none is given: film's.
+pub const DEFAULT_FPS: f64 = 24.0;
+
 /// A frame rate a run can advance by: finite and positive.
 pub fn check_fps(fps: f64) -> Result<(), FrameError> {
     if fps.is_finite() && fps > 0.0 {

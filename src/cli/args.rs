@@ -14,7 +14,7 @@ use super::render::{parse_size, UpArg};
 #[derive(clap::Args)]
 pub struct PhysicsArgs {
     /// Frames per second: the skin advances 1/fps seconds per frame.
-    #[arg(long, default_value_t = 24.0)]
+    #[arg(long, default_value_t = activeskin::frames::DEFAULT_FPS)]
     pub fps: f64,
     /// Attraction rate α (1/s): the skin closes α × its distance to the target per second.
     #[arg(long, default_value_t = activeskin::skin::speed::DEFAULT_ALPHA)]
@@ -35,12 +35,19 @@ pub struct PhysicsArgs {
     /// Storage of the potential: f32, or fixed16 (half the memory).
     #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
     pub precision: PrecisionArg,
-    /// Start this many frames before --frames (not before the sequence's first frame),
-    /// advancing without writing: a farm chunk then meets the sequential run at its first
-    /// frame. A number, or `auto`: enough frames for the start to fade under 0.05 voxel
-    /// (ln(40)·fps/α rounded up, 23 frames at α 4 and 24 fps).
-    #[arg(long)]
+    // The help's figures come from the library's defaults.
+    #[arg(long, help = warmup_help())]
     pub warmup: Option<String>,
+}
+
+/// `--warmup`'s help, its example computed at the default α and fps.
+fn warmup_help() -> String {
+    use activeskin::frames::{auto_warmup, DEFAULT_FPS, WARMUP_AUTO_FACTOR};
+    let alpha = activeskin::skin::speed::DEFAULT_ALPHA;
+    format!(
+        "Start this many frames before --frames (not before the sequence's first frame), advancing without writing: a farm chunk then meets the sequential run at its first frame. A number, or `auto`: enough frames for the start to fade to 1/{WARMUP_AUTO_FACTOR} of its offset (ln({WARMUP_AUTO_FACTOR})·fps/α rounded up, {} frames at α {alpha} and {DEFAULT_FPS} fps)",
+        auto_warmup(f64::from(alpha), DEFAULT_FPS)
+    )
 }
 
 /// `--velocity-time`: which frames' velocities carry the liquid between two frames.

@@ -30,10 +30,8 @@ pub struct ParticlesArgs {
     /// Use --radius for every particle, whatever radii the files hold.
     #[arg(long)]
     ignore_radii: bool,
-    /// Density of the surface, in kernel sums (W = (1 − q²)³) [default: the density at
-    /// the boundary of a fluid at rest, particles 2 radii apart: 3.11 at the default
-    /// smoothing length 2, about 0.6 of the fluid's density].
-    #[arg(long)]
+    // The help's figures come from the library's functions.
+    #[arg(long, help = iso_help())]
     iso: Option<f32>,
     /// Also write each frame's density as a VDB fog volume (grid `density`), same patterns.
     #[arg(long)]
@@ -82,6 +80,16 @@ pub enum ParticleTiming {
 }
 
 /// What `farm` needs to cut this run into chunks.
+/// `--iso`'s help, its figures at the default smoothing length.
+fn iso_help() -> String {
+    let l = DEFAULT_SMOOTHING_LENGTH;
+    let (iso, rest) = (fluid_iso(l), activeskin::target::rest_density(l));
+    format!(
+        "Density of the surface, in kernel sums (W = (1 − q²)³) [default: the density at the boundary of a fluid at rest, particles 2 radii apart: {iso:.2} at the default smoothing length {l}, {:.3} of the fluid's density, {rest:.2}]",
+        iso / rest
+    )
+}
+
 pub fn shot(args: &ParticlesArgs) -> anyhow::Result<Shot<'_>> {
     let input = input_frames("--particles", &args.particles, args.frames.as_deref())?;
     Ok(Shot {
