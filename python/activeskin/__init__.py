@@ -14,6 +14,7 @@ A skin follows its target frame by frame, through the same frame loops as the co
 import glob
 import os
 import re
+import warnings
 
 from ._activeskin import (
     HAS_VDB,
@@ -24,6 +25,9 @@ from ._activeskin import (
     read_particles,
 )
 
+if HAS_VDB:
+    from ._activeskin import measure_velocity  # noqa: F401
+
 __all__ = [
     "HAS_VDB",
     "LevelSetSkin",
@@ -33,7 +37,7 @@ __all__ = [
     "particles_sequence",
     "read_particles",
     "skin_sequence",
-]
+] + (["measure_velocity"] if HAS_VDB else [])
 
 _NUMBER = re.compile(r"#+|%0?(\d*)d")
 
@@ -120,18 +124,18 @@ def particles_sequence(pattern, radius, *, frames=None, mesh=None, progress=None
 
 
 def skin_sequence(pattern, *, frames=None, mesh=None, out=None, progress=None, grid=None,
-                  velocity=None, **options):
+                  velocity=None, velocity_scale="auto", velocity_time="auto", **options):
     """The ``skin`` command as a function: skins the VDB files of ``pattern`` (level sets,
     or fog volumes with ``iso=``; their ``grid``, else the first float grid) over
     ``frames`` (first, last; every frame found by default), carried by each file's
     velocity (``velocity``: None for its ``vel``, ``v`` or ``velocity`` grid, False for
-    none, or a grid's name; world units per second times ``velocity_scale``), writing
-    each frame's mesh to the ``mesh`` pattern and its skin to the ``out`` VDB pattern when
-    given, and calling ``progress(mesh)`` after each frame. ``options`` are
-    ``LevelSetSkin``'s (voxel_size, alpha, beta, fps, velocity_time, init, ...). Returns
-    the number of frames skinned. The same frames as ``activeskin skin --velocity-scale
-    1 --velocity-time start`` (the command measures the scale and timing by default).
-    Needs a build with OpenVDB (``HAS_VDB``).
+    none, or a grid's name), writing each frame's mesh to the ``mesh`` pattern and its
+    skin to the ``out`` VDB pattern when given, and calling ``progress(mesh)`` after each
+    frame. As the command, ``velocity_scale`` and ``velocity_time`` are measured from the
+    surface's own motion unless given ("auto"; a velocity that does not explain the
+    motion is left out, with a warning). ``options`` are ``LevelSetSkin``'s (voxel_size,
+    alpha, beta, fps, units, init, ...). Returns the number of frames skinned: the
+    command's frames, byte for byte. Needs a build with OpenVDB (``HAS_VDB``).
     """
     if not HAS_VDB:
         raise RuntimeError(
@@ -141,7 +145,26 @@ def skin_sequence(pattern, *, frames=None, mesh=None, out=None, progress=None, g
     found = _frames_found(pattern)
     first, last = _frame_range(pattern, frames, found)
     _make_folders(first, mesh, out)
-    skin = LevelSetSkin(first_frame=first, **options)
+    timing = None if velocity_time == "auto" else velocity_time
+    if velocity is not False and velocity_scale == "auto":
+        measured = measure_velocity(
+            pattern, frames=(first, last), grid=grid,
+            velocity=velocity if isinstance(velocity, str) else None,
+            fps=options.get("fps", 24.0), units=options.get("units", "auto"),
+            velocity_time=timing,
+        )
+        velocity_scale = 1.0
+        if measured is not None:
+            if measured["scale"] is None:
+                warnings.warn(measured["note"], stacklevel=2)
+                velocity = False
+            else:
+                velocity_scale = measured["scale"]
+            timing = measured["timing"]
+    elif velocity_scale == "auto":
+        velocity_scale = 1.0
+    skin = LevelSetSkin(first_frame=first, velocity_scale=velocity_scale,
+                        velocity_time=timing or "start", **options)
     count = 0
     for frame in range(first, last + 1):
         surface = skin.advance(_frame_path(pattern, frame), velocity, grid=grid)

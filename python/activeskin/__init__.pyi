@@ -182,18 +182,32 @@ def skin_sequence(
     progress: Callable[[Mesh], object] | None = None,
     grid: str | None = None,
     velocity: str | bool | None = None,
+    velocity_scale: float | str = "auto",
+    velocity_time: str = "auto",
     voxel_size: float | None = None,
     alpha: float = 4.0,
     beta: float | None = None,
     fps: float = 24.0,
     velocities: bool = True,
-    velocity_time: str = "start",
-    velocity_scale: float = 1.0,
     iso: float | None = None,
     units: str = "auto",
     init: Target | None = None,
 ) -> int:
     """The `skin` command as a function on VDB files (needs HAS_VDB): each frame's mesh
     written to the `mesh` pattern, its skin to the `out` VDB pattern, progress called
-    after each frame. The command's frames with --velocity-scale 1 --velocity-time
-    start."""
+    after each frame; the velocity's scale and timing measured as the command measures
+    them unless given. The command's frames, byte for byte."""
+
+def measure_velocity(
+    pattern: str | PathLike[str],
+    *,
+    frames: tuple[int, int] | None = None,
+    grid: str | None = None,
+    velocity: str | None = None,
+    fps: float = 24.0,
+    units: str = "auto",
+    velocity_time: str | None = None,
+) -> dict[str, object] | None:
+    """The velocity's scale (world units per second per cache unit; None when it does not
+    explain the surface's motion) and timing ("start" or "mid") as `skin` measures them,
+    with the command's note; None when the files hold no velocity. Needs HAS_VDB."""

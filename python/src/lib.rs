@@ -632,6 +632,59 @@ fn vdb_frame(
     Err(no_vdb())
 }
 
+/// Measures what turns a VDB sequence's velocity into world units per second, and which
+/// frames' velocity carries each interval, as the `skin` command does by default
+/// (`--velocity-scale auto --velocity-time auto`): a dict of `scale` (None when the
+/// velocity does not explain the surface's motion: leave it out), `timing` ("start" or
+/// "mid") and `note` (the command's line); None when the files hold no velocity.
+#[cfg(feature = "vdb")]
+#[pyfunction]
+#[pyo3(signature = (pattern, *, frames=None, grid=None, velocity=None, fps=24.0, units="auto", velocity_time=None))]
+#[allow(clippy::too_many_arguments)]
+fn measure_velocity<'py>(
+    py: Python<'py>,
+    pattern: std::path::PathBuf,
+    frames: Option<(i64, i64)>,
+    grid: Option<String>,
+    velocity: Option<String>,
+    fps: f64,
+    units: &str,
+    velocity_time: Option<&str>,
+) -> PyResult<Option<Bound<'py, PyDict>>> {
+    use activeskin::frames::{InputFrames, VelocityInput, VelocitySource};
+    let timing = match velocity_time {
+        None => None,
+        Some("start") => Some(Timing::Start),
+        Some("mid") => Some(Timing::Mid),
+        Some(other) => {
+            return Err(PyValueError::new_err(format!(
+                "velocity_time must be 'start' or 'mid', got '{other}'"
+            )))
+        }
+    };
+    let units = units_named(units)?;
+    let spec = pattern.to_string_lossy().into_owned();
+    let settled = py
+        .detach(|| {
+            let input = InputFrames::find("pattern", &spec, frames)?;
+            let mut measured = VelocityInput {
+                source: velocity.map_or(VelocitySource::Auto, VelocitySource::Named),
+                files: None,
+                scale: 1.0,
+            };
+            measured.settle_scale(&input, (grid.as_deref(), units), fps, timing)
+        })
+        .map_err(value_error)?;
+    let Some((estimate, note)) = settled else {
+        return Ok(None);
+    };
+    let out = PyDict::new(py);
+    out.set_item("scale", estimate.scale)?;
+    out.set_item("timing", estimate.timing.name())?;
+    out.set_item("note", note)?;
+    Ok(Some(out))
+}
+
 /// A skin on a sequence of level sets or fog volumes — a liquid simulation's surface
 /// (Mantaflow's `phi`, Houdini's `surface`), or a morph's end shape — advanced one frame
 /// at a time: the `skin` command's frame loop (`morph`'s with `seed=False` and `init`),
@@ -808,6 +861,8 @@ fn read_particles(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Bound<'_
 #[pymodule]
 fn _activeskin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_particles, m)?)?;
+    #[cfg(feature = "vdb")]
+    m.add_function(wrap_pyfunction!(measure_velocity, m)?)?;
     m.add_class::<ParticleSkin>()?;
     m.add_class::<LevelSetSkin>()?;
     // Whether VDB files can be read and written (the `vdb` feature).

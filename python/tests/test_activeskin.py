@@ -334,3 +334,36 @@ def test_skin_sequence_is_the_skin_command(binary, tmp_path):
         info = subprocess.run([binary, "info", str(tmp_path / "vdb" / f"s.{f:04d}.vdb")],
                               capture_output=True, text=True, check=True).stdout
         assert "grid 'surface'" in info and "level set" in info
+
+
+@needs_vdb
+def test_skin_sequence_measures_the_velocity_as_the_command_does(binary, tmp_path):
+    """A sequence with a velocity grid (the command's own skins, which carry their
+    surface's velocity as `v`): skin_sequence measures its scale and timing as `skin`
+    does by default, and gives the command's meshes byte for byte."""
+    subprocess.run(
+        [binary, "skin", "--target", str(MOVING / "sphere.####.vdb"), "--out",
+         str(tmp_path / "moving" / "s.####.vdb"), "-q"],
+        check=True,
+    )
+    pattern = tmp_path / "moving" / "s.####.vdb"
+    run = subprocess.run(
+        [binary, "skin", "--target", str(pattern), "--mesh", str(tmp_path / "cli" / "m.####.ply")],
+        check=True, capture_output=True, text=True,
+    )
+    measured = activeskin.measure_velocity(pattern)
+    assert measured is not None and measured["scale"] is not None, measured
+    assert measured["note"] in run.stderr, (measured["note"], run.stderr)
+    assert activeskin.skin_sequence(pattern, mesh=tmp_path / "py" / "m.####.ply") == 8
+    for f in range(1, 9):
+        assert (tmp_path / "py" / f"m.{f:04d}.ply").read_bytes() == (tmp_path / "cli" / f"m.{f:04d}.ply").read_bytes(), f
+    # Given, not measured: the command's frames with the same options.
+    subprocess.run(
+        [binary, "skin", "--target", str(pattern), "--velocity-scale", "1", "--velocity-time",
+         "start", "--mesh", str(tmp_path / "cli1" / "m.####.ply"), "-q"],
+        check=True,
+    )
+    activeskin.skin_sequence(pattern, mesh=tmp_path / "py1" / "m.####.ply", velocity_scale=1.0,
+                             velocity_time="start")
+    for f in range(1, 9):
+        assert (tmp_path / "py1" / f"m.{f:04d}.ply").read_bytes() == (tmp_path / "cli1" / f"m.{f:04d}.ply").read_bytes(), f
