@@ -20,10 +20,12 @@ demo: build
 	./target/release/activeskin info $(OUT)/fig7/fig7.0048.vdb
 	@echo "demo: in ./$(OUT): fig7/ (six blobs to two spheres), orbit/ (a moving target), splash/ (a drop of particles): VDB, OBJ, EXR, a USD shot, stats"
 
-# The peer race (activeskin bench: OpenVDB's tools side by side), then the step alone.
+# The peer race (activeskin bench: OpenVDB's tools side by side), the step alone, and
+# the README's long examples (console slow blocks).
 bench: deps
 	$(CARGO) run --release -- bench
 	$(CARGO) bench --bench step
+	$(CARGO) test --release --test readme -- --ignored
 
 # Tests run optimised: they solve and mesh real grids. Lint first: it is the quick part.
 test: deps lint

@@ -10,7 +10,8 @@
 //!   depends on the machine: times, memory), and a line `...` for any lines;
 //! - `? N` ends an output with exit code N (0 when not given).
 //!
-//! A block tagged `console slow` (a long run, a cache) is left to the bench.
+//! A block tagged `console slow` (a long run, a cache) is left out of the suite and run by
+//! `make bench` (`cargo test --release --test readme -- --ignored`).
 #![cfg(feature = "cli")]
 
 mod common;
@@ -26,12 +27,17 @@ struct Example {
     code: i32,
 }
 
-/// The README's `console` blocks (not `slow`), each a list of examples.
-fn blocks(readme: &str) -> Vec<Vec<Example>> {
+/// The README's `console` blocks (`console slow` ones when `slow`), each a list of
+/// examples.
+fn blocks(readme: &str, slow: bool) -> Vec<Vec<Example>> {
+    let tag = match slow {
+        false => "```console",
+        true => "```console slow",
+    };
     let mut blocks = Vec::new();
     let mut lines = readme.lines().enumerate().peekable();
     while let Some((_, line)) = lines.next() {
-        if line.trim() != "```console" {
+        if line.trim() != tag {
             continue;
         }
         // A block in a list item is indented as the item's text.
@@ -160,15 +166,12 @@ fn lines_match(patterns: &[String], lines: &[&str]) -> bool {
     }
 }
 
-#[test]
-fn the_readmes_examples_print_what_it_shows() {
+/// Runs `blocks`, each in a scratch folder holding `data/`; the failures, described.
+fn run(blocks: &[Vec<Example>]) -> Vec<String> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
-    let blocks = blocks(&readme);
-    assert!(blocks.len() >= 6, "{} console blocks", blocks.len());
     let mut failures = Vec::new();
     let mut ran = 0;
-    for block in &blocks {
+    for block in blocks {
         let dir = common::scratch();
         std::os::unix::fs::symlink(root.join("data"), dir.path().join("data")).unwrap();
         for example in block {
@@ -206,6 +209,29 @@ fn the_readmes_examples_print_what_it_shows() {
         }
     }
     println!("{ran} README examples run");
+    failures
+}
+
+fn readme() -> String {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    std::fs::read_to_string(root.join("README.md")).unwrap()
+}
+
+#[test]
+fn the_readmes_examples_print_what_it_shows() {
+    let blocks = blocks(&readme(), false);
+    assert!(blocks.len() >= 6, "{} console blocks", blocks.len());
+    let failures = run(&blocks);
+    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+}
+
+/// The long examples (`console slow`): `make bench` runs them.
+#[test]
+#[ignore = "long runs: make bench"]
+fn the_readmes_long_examples_print_what_it_shows() {
+    let blocks = blocks(&readme(), true);
+    assert!(!blocks.is_empty(), "no console slow block");
+    let failures = run(&blocks);
     assert!(failures.is_empty(), "{}", failures.join("\n\n"));
 }
 
