@@ -30,7 +30,8 @@ pub use level_sets::{
 #[cfg(feature = "vdb")]
 pub use outputs::write_skin_vdb;
 pub use outputs::{
-    OutputSpec, Outputs, Progress, Report, Surface, SurfaceSink, SurfaceValues, UsdSpec,
+    write_usd_frame, OutputSpec, Outputs, Progress, Report, Surface, SurfaceSink, SurfaceValues,
+    UsdSpec,
 };
 pub use particle_run::{ParticleRun, ParticleSource};
 pub use stream::{

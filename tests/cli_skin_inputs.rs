@@ -294,7 +294,7 @@ fn mantaflow_phi_in_voxels_with_background_0_is_read_in_world_units() {
 
 /// `--init` on another frame of a Mantaflow cache starts on its `--grid`, not on the
 /// file's first float grid (Mantaflow writes `phi_obstacle` and others beside `phi`), in
-/// the units the target's are read in.
+/// the units the target's are read in; without `--grid`, `phi` is the grid read.
 #[test]
 fn init_from_a_cache_frame_reads_the_targets_grid() {
     let dir = common::scratch();
@@ -333,6 +333,26 @@ fn init_from_a_cache_frame_reads_the_targets_grid() {
         .map(|p| ((*p - Vec3::splat(1.0)).length() - 0.25).abs() * 32.0)
         .fold(0.0f32, f32::max);
     assert!(off < 0.1, "the first skin is {off} voxels off init's phi");
+    // Without --grid, Mantaflow's `phi` is read, not the first float grid.
+    let unnamed = dir.path().join("unnamed.####.obj");
+    assert_ok(&activeskin(&[
+        "skin",
+        "--target",
+        target.to_str().unwrap(),
+        "--init",
+        init.to_str().unwrap(),
+        "--mesh",
+        unnamed.to_str().unwrap(),
+        "-q",
+    ]));
+    for frame in ["0001", "0002"] {
+        let named = std::fs::read(dir.path().join(format!("skin.{frame}.obj"))).unwrap();
+        let unnamed = std::fs::read(dir.path().join(format!("unnamed.{frame}.obj"))).unwrap();
+        assert!(
+            named == unnamed,
+            "frame {frame}: without --grid, not phi's skin"
+        );
+    }
 }
 
 #[test]

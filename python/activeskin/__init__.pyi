@@ -27,6 +27,19 @@ class Mesh:
 
     def save(self, path: str | PathLike[str]) -> None:
         """Writes OBJ or PLY by the extension (PLY with velocities and attributes)."""
+    def save_usd(
+        self,
+        stage: str | PathLike[str],
+        frames: tuple[int, int],
+        *,
+        fps: float = 24.0,
+        up: str = "y",
+        meters_per_unit: float = 1.0,
+    ) -> None:
+        """Writes this frame of the USD shot `stage` (.usda) over `frames` (first, last),
+        as the command's --usd does: the frame's layer (shot/shot.0012.usda beside
+        shot.usda) and the stage, the same for every frame. up: the stage's up axis,
+        "y" or "z" (Blender's)."""
 
 class ParticleSkin:
     """A skin advanced one frame at a time by a particle simulation's particles."""

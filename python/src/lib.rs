@@ -8,12 +8,14 @@ use std::time::Duration;
 
 use activeskin::flow::Timing;
 use activeskin::frames::{
-    dense_grid, AttributeChoice, FrameError, FrameStream, FrameSurface, LevelSetFrame,
-    LevelSetSpec, LevelSetStream, ParticleInput, ParticleStream, StreamSpec, TargetUnits,
+    dense_grid, write_usd_frame, AttributeChoice, FrameError, FrameStream, FrameSurface,
+    LevelSetFrame, LevelSetSpec, LevelSetStream, ParticleInput, ParticleStream, StreamSpec,
+    TargetUnits, UsdSpec,
 };
 use activeskin::io::mesh::{write_with_values, VertexValues};
 use activeskin::mesh::Mesh as SkinMesh;
 use activeskin::particles::{Attribute, Particles};
+use activeskin::render::Up;
 use activeskin::skin::Physics;
 use activeskin::target::fluid_iso;
 use activeskin::volume::{GridClass, GridData, VectorGrid};
@@ -125,6 +127,40 @@ struct Mesh {
 }
 
 impl Mesh {
+    /// The mesh, its velocities and attributes back as the library's, to write.
+    fn contents(&self, py: Python<'_>) -> PyResult<(SkinMesh, Option<Vec<Vec3>>, Vec<Attribute>)> {
+        let read = |a: &Py<PyArray2<f32>>| -> Vec<Vec3> {
+            let a = a.bind(py).readonly();
+            a.as_array()
+                .rows()
+                .into_iter()
+                .map(|r| Vec3::new(r[0], r[1], r[2]))
+                .collect()
+        };
+        let triangles = self.triangles.bind(py).readonly();
+        let mesh = SkinMesh {
+            positions: read(&self.vertices),
+            normals: read(&self.normals),
+            triangles: triangles
+                .as_array()
+                .rows()
+                .into_iter()
+                .map(|r| [r[0], r[1], r[2]])
+                .collect(),
+        };
+        let velocities = self.velocities.as_ref().map(read);
+        let mut attributes = Vec::new();
+        for (name, array) in self.attributes.bind(py).iter() {
+            let (components, values) = attribute_values(&array)?;
+            attributes.push(Attribute {
+                name: name.extract()?,
+                components,
+                values,
+            });
+        }
+        Ok((mesh, velocities, attributes))
+    }
+
     /// The mesh of `surface`, and its settled skin.
     fn new(py: Python<'_>, surface: FrameSurface, time: f64) -> PyResult<(Self, GridData)> {
         let FrameSurface {
@@ -175,41 +211,52 @@ impl Mesh {
     /// Writes the mesh as OBJ or PLY by the extension (PLY with the velocities and
     /// attributes), as the command writes it.
     fn save(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
-        let read = |a: &Py<PyArray2<f32>>| -> Vec<Vec3> {
-            let a = a.bind(py).readonly();
-            a.as_array()
-                .rows()
-                .into_iter()
-                .map(|r| Vec3::new(r[0], r[1], r[2]))
-                .collect()
-        };
-        let triangles = self.triangles.bind(py).readonly();
-        let mesh = SkinMesh {
-            positions: read(&self.vertices),
-            normals: read(&self.normals),
-            triangles: triangles
-                .as_array()
-                .rows()
-                .into_iter()
-                .map(|r| [r[0], r[1], r[2]])
-                .collect(),
-        };
-        let velocities = self.velocities.as_ref().map(read);
-        let mut attributes = Vec::new();
-        for (name, array) in self.attributes.bind(py).iter() {
-            let (components, values) = attribute_values(&array)?;
-            attributes.push(Attribute {
-                name: name.extract()?,
-                components,
-                values,
-            });
-        }
+        let (mesh, velocities, attributes) = self.contents(py)?;
         let values = VertexValues {
             velocities: velocities.as_deref(),
             attributes: &attributes,
         };
         py.detach(|| write_with_values(&mesh, values, &path))
             .map_err(|e| pyo3::exceptions::PyOSError::new_err(e.to_string()))
+    }
+
+    /// Writes the mesh as its frame of the USD shot `stage` (`.usda`) over `frames`
+    /// (first, last), as the command's `--usd` does: the frame's layer beside the stage,
+    /// and the stage, the same for every frame of the shot.
+    #[pyo3(signature = (stage, frames, *, fps=24.0, up="y", meters_per_unit=1.0))]
+    fn save_usd(
+        &self,
+        py: Python<'_>,
+        stage: std::path::PathBuf,
+        frames: (i64, i64),
+        fps: f64,
+        up: &str,
+        meters_per_unit: f64,
+    ) -> PyResult<()> {
+        let up = match up {
+            "y" | "Y" => Up::Y,
+            "z" | "Z" => Up::Z,
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "up must be \"y\" or \"z\", got {up:?}"
+                )))
+            }
+        };
+        let (mesh, velocities, attributes) = self.contents(py)?;
+        let values = VertexValues {
+            velocities: velocities.as_deref(),
+            attributes: &attributes,
+        };
+        let spec = UsdSpec {
+            stage,
+            meters_per_unit,
+            shot: Some(frames),
+        };
+        py.detach(|| write_usd_frame(&spec, self.frame, (fps, up), &mesh, values))
+            .map_err(|e| match e {
+                FrameError::Usage(_) => value_error(e),
+                _ => pyo3::exceptions::PyOSError::new_err(e.to_string()),
+            })
     }
 
     fn __repr__(&self, py: Python<'_>) -> String {

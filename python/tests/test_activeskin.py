@@ -65,7 +65,8 @@ def test_handed_arrays_make_the_commands_meshes(binary, tmp_path):
         write_ply(data / f"p.{f:04d}.ply", *ball(f))
     subprocess.run(
         [binary, "particles", "--particles", str(data / "p.####.ply"), "--radius", str(R),
-         "--attribute", "temperature", "--mesh", str(cli / "m.####.ply"), "-q"],
+         "--attribute", "temperature", "--mesh", str(cli / "m.####.ply"),
+         "--usd", str(cli / "shot.usda"), "--up", "z", "--meters-per-unit", "0.01", "-q"],
         check=True,
     )
     skin = activeskin.ParticleSkin(R, attributes=["temperature"])
@@ -87,6 +88,19 @@ def test_handed_arrays_make_the_commands_meshes(binary, tmp_path):
         mesh.save(ours / f"m.{f:04d}.ply")
         a, b = (ours / f"m.{f:04d}.ply").read_bytes(), (cli / f"m.{f:04d}.ply").read_bytes()
         assert a == b, f"frame {f}: the Python mesh differs from the command's"
+        mesh.save_usd(ours / "shot.usda", (1, 4), up="z", meters_per_unit=0.01)
+    # The USD shot too: stage, manifest and every frame's layer.
+    written = sorted(p.relative_to(cli) for p in cli.rglob("*.usda"))
+    assert len(written) == 2 + len(frames), written
+    assert written == sorted(p.relative_to(ours) for p in ours.rglob("*.usda"))
+    for name in written:
+        assert (ours / name).read_bytes() == (cli / name).read_bytes(), name
+    with pytest.raises(ValueError, match="not one of the shot's frames, 1-3"):
+        mesh.save_usd(ours / "shot.usda", (1, 3))
+    with pytest.raises(ValueError, match="name the stage .usda or .usd"):
+        mesh.save_usd(ours / "shot.usdc", (1, 4))
+    with pytest.raises(ValueError, match="up must be"):
+        mesh.save_usd(ours / "shot.usda", (1, 4), up="x")
 
 
 def test_the_demo_splash_read_and_skinned_in_python_is_the_commands(binary, tmp_path):

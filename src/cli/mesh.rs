@@ -18,7 +18,7 @@ pub struct MeshArgs {
     /// The mesh to write: .obj or .ply.
     output: PathBuf,
     /// Grid name, `name[1]` for a second grid of one name, or index in the file
-    /// (default: the first float grid).
+    /// (default: `surface` or `phi`, Houdini's and Mantaflow's level sets, else the first float grid).
     #[arg(long)]
     grid: Option<String>,
     /// Surface density, for fog volumes (inside where the density is larger).

@@ -23,7 +23,7 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value_t = UpArg::Y)]
     up: UpArg,
     /// Grid name, `name[1]` for a second grid of one name, or index in the file
-    /// (default: the first float grid).
+    /// (default: `surface` or `phi`, Houdini's and Mantaflow's level sets, else the first float grid).
     #[arg(long)]
     grid: Option<String>,
     /// Surface density, for fog volumes.

@@ -26,7 +26,7 @@ pub struct SkinArgs {
     #[arg(long)]
     hold_missing: bool,
     /// Target grid name, `name[1]` for a second grid of one name, or index in the file
-    /// (default: the first float grid of each file).
+    /// (default: `surface` or `phi`, Houdini's and Mantaflow's level sets, else the first float grid of each file).
     #[arg(long)]
     grid: Option<String>,
     /// Density of the surface, for fog volumes.

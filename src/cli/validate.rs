@@ -12,7 +12,7 @@ pub struct ValidateArgs {
     /// A VDB file holding a level set.
     file: PathBuf,
     /// Grid name, `name[1]` for a second grid of one name, or index in the file
-    /// (default: the first float grid).
+    /// (default: `surface` or `phi`, Houdini's and Mantaflow's level sets, else the first float grid).
     #[arg(long)]
     grid: Option<String>,
 }

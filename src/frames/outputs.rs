@@ -191,24 +191,13 @@ impl Outputs {
         let usd_frames = usd.as_ref().map(|(_, shot)| shot.frame_pattern());
         let patterns = out.iter().chain(&mesh).chain(render.iter().map(|r| &r.0));
         for pattern in patterns.chain(&usd_frames) {
-            let folder = pattern.folder();
-            std::fs::create_dir_all(&folder).map_err(|e| {
-                FrameError::Data(format!(
-                    "{}: cannot create the output folder: {e}",
-                    folder.display()
-                ))
-            })?;
+            create_folder(&pattern.folder())?;
             remove_stale_temporaries(pattern, first..=last);
         }
         // The stats file's folder too, as the others': made before frame 1 is written.
         if let Some(folder) = spec.stats.as_ref().and_then(|s| s.parent()) {
             if !folder.as_os_str().is_empty() {
-                std::fs::create_dir_all(folder).map_err(|e| {
-                    FrameError::Data(format!(
-                        "{}: cannot create the output folder: {e}",
-                        folder.display()
-                    ))
-                })?;
+                create_folder(folder)?;
             }
         }
         if let Some(p) = &spec.progress {
@@ -440,6 +429,39 @@ impl Outputs {
     pub fn finish(&self) {
         self.tell(&Report::Done);
     }
+}
+
+/// Writes frame `frame` of the USD shot `spec` (its `shot` the shot's frames) outside a
+/// frame loop, as a run writing it would: the frame's layer, and the stage and manifest,
+/// which every frame of a shot writes the same (the Python package's `Mesh.save_usd`).
+pub fn write_usd_frame(
+    spec: &UsdSpec,
+    frame: i64,
+    (fps, up): (f64, Up),
+    mesh: &crate::mesh::Mesh,
+    values: crate::io::mesh::VertexValues,
+) -> Result<(), FrameError> {
+    if let Some((first, last)) = spec.shot.filter(|&(a, b)| !(a..=b).contains(&frame)) {
+        return Err(FrameError::Usage(format!(
+            "frame {frame} is not one of the shot's frames, {first}-{last}"
+        )));
+    }
+    super::check_fps(fps)?;
+    let (_, mut shot) = shot_of(spec, (frame, frame))?;
+    (shot.fps, shot.up) = (fps, up);
+    create_folder(&shot.folder())?;
+    shot.write_stage(&usd::Carried::of(&values))?;
+    Ok(shot.write_frame(frame, mesh, values)?)
+}
+
+/// Makes an output folder (and those above it) when missing.
+fn create_folder(folder: &Path) -> Result<(), FrameError> {
+    std::fs::create_dir_all(folder).map_err(|e| {
+        FrameError::Data(format!(
+            "{}: cannot create the output folder: {e}",
+            folder.display()
+        ))
+    })
 }
 
 /// The USD shot asked for, checked, over the frames `written` unless it says whose.

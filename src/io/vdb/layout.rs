@@ -146,8 +146,10 @@ impl Layout {
 
     /// The grid to read, by its unique name in the file as OpenVDB's lookup takes it
     /// (`a[1]`: given as stored, `a\x1e1`, it finds the first `a`): `name`
-    /// ([`Layout::find`]), or the first float grid in file order (OpenVDB's own lookup
-    /// goes by sorted name). `Err` explains, listing the grids.
+    /// ([`Layout::find`]), or else the level set a simulation names ([`LEVEL_SET_NAMES`]:
+    /// Mantaflow writes `phi` after `phi_obstacle` and others), or else the first float
+    /// grid in file order (OpenVDB's own lookup goes by sorted name). `Err` explains,
+    /// listing the grids.
     pub fn choose_float_grid(&self, name: Option<&str>) -> Result<String, LayoutError> {
         let is_float = |kind: &str| kind.starts_with("Tree_float_");
         match name {
@@ -158,15 +160,19 @@ impl Layout {
                 }
                 Some((g, _)) => Ok(printable_name(g)),
             },
-            None => self
-                .grids
+            None => LEVEL_SET_NAMES
                 .iter()
-                .find(|(_, kind)| is_float(kind))
+                .find_map(|n| self.grids.iter().find(|(g, kind)| g == n && is_float(kind)))
+                .or_else(|| self.grids.iter().find(|(_, kind)| is_float(kind)))
                 .map(|(g, _)| printable_name(g))
                 .ok_or_else(|| format!("no float grid ({})", self.describe_grids()).into()),
         }
     }
 }
+
+/// The float grids read without `--grid` before the file's first: the level sets
+/// Houdini (`surface`) and Mantaflow (`phi`) write beside others.
+pub const LEVEL_SET_NAMES: &[&str] = &["surface", "phi"];
 
 struct Walker<R> {
     reader: R,
