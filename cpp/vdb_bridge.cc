@@ -8,6 +8,7 @@
 #include <openvdb/tools/Prune.h>
 
 #include <dlfcn.h>
+#include <link.h>
 
 #include <cstring>
 #include <mutex>
@@ -37,9 +38,30 @@ static const char *const kLogToStderr =
     "log4cplus.appender.STDERR.layout=log4cplus::PatternLayout\n"
     "log4cplus.appender.STDERR.layout.ConversionPattern=OpenVDB %p: %m%n\n";
 
+// Looked up in log4cplus itself, not by name in the whole process: other libraries bundle
+// their own copy under the same names (DCMTK's liboflog, loaded by Blender before it,
+// takes the configuration for a file name).
+static void *log4cplus_library() {
+  static void *handle = [] {
+    void *found = nullptr;
+    dl_iterate_phdr(
+        [](struct dl_phdr_info *info, size_t, void *data) {
+          if (info->dlpi_name && std::strstr(info->dlpi_name, "/liblog4cplus")) {
+            *static_cast<void **>(data) = dlopen(info->dlpi_name, RTLD_LAZY | RTLD_NOLOAD);
+            return 1;
+          }
+          return 0;
+        },
+        &found);
+    return found;
+  }();
+  return handle;
+}
+
 template <typename F>
 static F log4cplus_function(const char *name) {
-  return reinterpret_cast<F>(dlsym(RTLD_DEFAULT, name));
+  void *library = log4cplus_library();
+  return library ? reinterpret_cast<F>(dlsym(library, name)) : nullptr;
 }
 
 void ensure_initialized() {

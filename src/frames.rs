@@ -31,7 +31,7 @@ pub use level_sets::{
 pub use outputs::write_skin_vdb;
 pub use outputs::{
     write_usd_frame, OutputSpec, Outputs, Progress, Report, Surface, SurfaceSink, SurfaceValues,
-    UsdSpec,
+    UsdSpec, VoxelVelocities,
 };
 pub use particle_run::{ParticleRun, ParticleSource};
 pub use stream::{

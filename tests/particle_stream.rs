@@ -68,6 +68,7 @@ fn spec() -> StreamSpec {
         fps: 24.0,
         hold_volume: true,
         velocities: true,
+        velocity_grid: false,
         first_frame: 1,
         reference: None,
     }

@@ -1,11 +1,13 @@
 """activeskin for Blender: a surface that follows a particle simulation through time.
 
 Bakes a skin (Desbrun & Cani's active implicit surface, through the activeskin Python
-package) on a particle system of the scene or on a particle file sequence (PLY, VTK,
+package) on a particle system of the scene, a mesh object's points, a Mantaflow liquid
+domain's OpenVDB cache (its `phi` and `velocity`) or a particle file sequence (PLY, VTK,
 VTU, BGEO, CSV: whatever `activeskin particles` reads), frame by frame, into a cache
-folder of PLY meshes (with the surface's velocity per vertex), and shows the baked
-surface as a mesh object that follows the timeline, with a `velocity` point attribute
-for motion blur. Sidebar (N) > activeskin in the 3D viewport.
+folder of PLY meshes (with the surface's velocity per vertex), and where asked a USD
+shot and VDB level sets, and shows the baked surface as a mesh object that follows the
+timeline, with a `velocity` point attribute for motion blur. Sidebar (N) > activeskin in
+the 3D viewport.
 """
 
 bl_info = {
@@ -26,9 +28,13 @@ import sys
 import zipfile
 
 import bpy
+import mathutils
 import numpy as np
 
 CACHE_NAME = "skin_{frame:04d}.ply"
+VDB_NAME = "skin_{frame:04d}.vdb"
+USD_NAME = "skin.usda"
+MANTAFLOW_DATA = os.path.join("data", "fluid_data_####.vdb")
 DISPLAY_NAME = "ActiveSkin"
 
 
@@ -81,6 +87,8 @@ class ActiveSkinSettings(bpy.types.PropertyGroup):
             ("POINTS", "Object's points",
              "The vertices of a mesh object, as Sequence Loader, Alembic or Geometry Nodes "
              "bring particles in (with their velocity and id attributes when present)"),
+            ("MANTAFLOW", "Mantaflow liquid",
+             "A liquid domain's cache in OpenVDB: its phi level set, carried by its velocity"),
             ("FILES", "Files", "A particle file sequence: PLY, VTK, VTU, BGEO, CSV"),
         ],
         default="PARTICLES",
@@ -100,7 +108,7 @@ class ActiveSkinSettings(bpy.types.PropertyGroup):
     )
     voxel_size: bpy.props.FloatProperty(
         name="Voxel size", default=0.0, min=0.0, precision=4,
-        description="0 for the default, half the particle radius",
+        description="0 for the default: half the particle radius, or the Mantaflow cache's",
     )
     alpha: bpy.props.FloatProperty(
         name="Attraction α", default=4.0, min=0.0,
@@ -119,6 +127,14 @@ class ActiveSkinSettings(bpy.types.PropertyGroup):
     cache_dir: bpy.props.StringProperty(
         name="Cache", subtype="DIR_PATH", default="//activeskin/",
         description="Folder of the baked meshes (PLY, one a frame)",
+    )
+    write_usd: bpy.props.BoolProperty(
+        name="USD shot", default=False,
+        description="Also write the surface as a USD shot (skin.usda in the cache, a layer a frame)",
+    )
+    write_vdb: bpy.props.BoolProperty(
+        name="VDB level sets", default=False,
+        description="Also write the skin as a VDB level set a frame (needs activeskin built with OpenVDB)",
     )
 
 
@@ -149,6 +165,35 @@ def _particles_of(settings, scene, depsgraph):
     ids = np.arange(n, dtype=np.int64)[keep]
     # Blender's particle velocities are in units per second.
     return location.reshape(n, 3)[keep], velocity.reshape(n, 3)[keep], ids
+
+
+def _mantaflow_domain(settings):
+    """The liquid domain's settings and the pattern of its OpenVDB data cache."""
+    domain = settings.emitter
+    if domain is None:
+        raise ValueError("choose the Mantaflow liquid domain to skin")
+    fluid = next((m for m in domain.modifiers if m.type == "FLUID" and m.fluid_type == "DOMAIN"), None)
+    if fluid is None:
+        raise ValueError(f"{domain.name} is not a fluid domain")
+    d = fluid.domain_settings
+    if d.domain_type != "LIQUID":
+        raise ValueError(f"{domain.name} is a {d.domain_type.lower()} domain, not a liquid")
+    if d.cache_data_format != "OPENVDB":
+        raise ValueError(
+            f"{domain.name} caches its data as {d.cache_data_format}: set Cache > Format "
+            "Volumes to OpenVDB and bake again"
+        )
+    pattern = os.path.join(bpy.path.abspath(d.cache_directory), MANTAFLOW_DATA)
+    return d, pattern
+
+
+def _mantaflow_placement(domain, settings):
+    """Where the cache's voxel (0, 0, 0) is in the scene: Mantaflow writes its grids from
+    the domain's lowest corner, its values at the cells' centres."""
+    corners = [domain.matrix_world @ mathutils.Vector(c) for c in domain.bound_box]
+    lowest = mathutils.Vector([min(c[i] for c in corners) for i in range(3)])
+    dx = max(domain.dimensions) / settings.resolution_max
+    return lowest + mathutils.Vector((0.5 * dx,) * 3)
 
 
 def _points_of(settings, depsgraph):
@@ -200,6 +245,19 @@ class Bake:
             raise ValueError(f"the frame range {s.frame_start}-{s.frame_end} is empty")
         if s.source == "FILES" and not s.pattern:
             raise ValueError("choose the particle files: a pattern with #### or #")
+        activeskin = _activeskin()
+        if s.write_vdb and not activeskin.HAS_VDB:
+            raise ValueError(
+                "VDB output needs activeskin built with OpenVDB (make wheel-vdb), "
+                "this one was built without"
+            )
+        if s.source == "MANTAFLOW":
+            if not activeskin.HAS_VDB:
+                raise ValueError(
+                    "a Mantaflow cache is read with activeskin built with OpenVDB "
+                    "(make wheel-vdb), this one was built without"
+                )
+            self.domain, self.pattern = _mantaflow_domain(s)
         self.cache = _cache_dir(s)
         os.makedirs(self.cache, exist_ok=True)
         done = s.frame_start - 1
@@ -210,15 +268,32 @@ class Bake:
         warmup = math.ceil(math.log(40) * fps / s.alpha) if s.alpha > 0 else done
         self.first = s.frame_start if done < s.frame_start else max(s.frame_start, done + 1 - warmup)
         self.frames = list(range(self.first, s.frame_end + 1)) if done < s.frame_end else []
-        activeskin = _activeskin()
-        self.skin = activeskin.ParticleSkin(
-            s.radius,
-            voxel_size=s.voxel_size or None,
-            alpha=s.alpha,
-            beta=s.beta or None,
-            fps=fps,
-            first_frame=self.first,
-        )
+        self.fps = fps
+        if s.source == "MANTAFLOW":
+            # The velocity's scale and timing measured over the whole range, as the
+            # `skin` command does, so that a resumed bake makes the same frames.
+            self.skin, self.velocity = activeskin.skin_for_sequence(
+                self.pattern,
+                frames=(s.frame_start, s.frame_end),
+                first_frame=self.first,
+                grid="phi",
+                velocity="velocity" if s.use_velocity else False,
+                voxel_size=s.voxel_size or None,
+                alpha=s.alpha,
+                beta=s.beta or None,
+                fps=fps,
+                velocity_grid=s.write_vdb,
+            )
+        else:
+            self.skin = activeskin.ParticleSkin(
+                s.radius,
+                voxel_size=s.voxel_size or None,
+                alpha=s.alpha,
+                beta=s.beta or None,
+                fps=fps,
+                first_frame=self.first,
+                velocity_grid=s.write_vdb,
+            )
         self.total = len(self.frames)
 
     def _cached(self, frame):
@@ -236,6 +311,13 @@ class Bake:
         elif s.source == "POINTS":
             self.scene.frame_set(frame)
             positions, velocities, ids = _points_of(s, context.evaluated_depsgraph_get())
+        elif s.source == "MANTAFLOW":
+            path = _frame_path(self.pattern, frame)
+            if not os.path.isfile(path):
+                raise ValueError(f"{path}: not baked (bake the domain's data over {s.frame_start}-{s.frame_end})")
+            mesh = self.skin.advance(path, self.velocity, grid="phi")
+            self._write(frame, mesh)
+            return True
         else:
             path = bpy.path.abspath(_frame_path(s.pattern, frame))
             read = _activeskin().read_particles(path)
@@ -243,9 +325,26 @@ class Bake:
         if not s.use_velocity:
             velocities, ids = None, None
         mesh = self.skin.advance(positions, velocities=velocities, ids=ids)
-        if frame > self.done:
-            mesh.save(self._cached(frame))
+        self._write(frame, mesh)
         return True
+
+    def _write(self, frame, mesh):
+        """The frame's outputs, unless an earlier bake wrote them (a warm-up frame)."""
+        if frame <= self.done:
+            return
+        s = self.settings
+        if s.write_usd:
+            mesh.save_usd(
+                os.path.join(self.cache, USD_NAME),
+                (s.frame_start, s.frame_end),
+                fps=self.fps,
+                up="z",
+                meters_per_unit=self.scene.unit_settings.scale_length,
+            )
+        if s.write_vdb:
+            self.skin.save_vdb(os.path.join(self.cache, VDB_NAME.format(frame=frame)))
+        # The PLY last: a frame is baked when its PLY is there.
+        mesh.save(self._cached(frame))
 
 
 class ACTIVESKIN_OT_bake(bpy.types.Operator):
@@ -390,7 +489,11 @@ def load_frame(scene, frame):
 
 
 def _show(scene):
-    load_frame(scene, scene.frame_current)
+    obj = load_frame(scene, scene.frame_current)
+    s = scene.activeskin
+    if s.source == "MANTAFLOW" and s.emitter is not None:
+        fluid, _ = _mantaflow_domain(s)
+        obj.matrix_world = mathutils.Matrix.Translation(_mantaflow_placement(s.emitter, fluid))
 
 
 @bpy.app.handlers.persistent
@@ -415,11 +518,12 @@ class ACTIVESKIN_PT_panel(bpy.types.Panel):
         if s.source == "PARTICLES":
             layout.prop(s, "emitter")
             layout.prop(s, "particle_system")
-        elif s.source == "POINTS":
-            layout.prop(s, "emitter")
+        elif s.source in ("POINTS", "MANTAFLOW"):
+            layout.prop(s, "emitter", text="Domain" if s.source == "MANTAFLOW" else "Object")
         else:
             layout.prop(s, "pattern")
-        layout.prop(s, "radius")
+        if s.source != "MANTAFLOW":
+            layout.prop(s, "radius")
         layout.prop(s, "voxel_size")
         layout.prop(s, "alpha")
         layout.prop(s, "beta")
@@ -428,6 +532,9 @@ class ACTIVESKIN_PT_panel(bpy.types.Panel):
         row.prop(s, "frame_start")
         row.prop(s, "frame_end")
         layout.prop(s, "cache_dir")
+        row = layout.row(align=True)
+        row.prop(s, "write_usd")
+        row.prop(s, "write_vdb")
         layout.operator(ACTIVESKIN_OT_bake.bl_idname, icon="MOD_FLUIDSIM")
 
 

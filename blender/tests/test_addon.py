@@ -1,26 +1,33 @@
 """The add-on in Blender without a window: run by tests/python.rs as
 
-    blender -b --factory-startup --python test_addon.py -- ADDON_PARENT CACHE SPLASH CLI RENDER
+    ACTIVESKIN_BIN=activeskin blender -b --factory-startup --python test_addon.py -- ADDON_PARENT CACHE SPLASH RENDER
 
 (the add-on copied there with the wheel it unpacks). A cube of particles falls under
 gravity: the bake writes a mesh a frame, the display object follows the timeline with a
 `velocity` attribute, a bake stopped part-way resumes to the same files, and bad
-parameters are one line in Blender's report, no traceback. Then the demo splash's PLY
-sequence (SPLASH, a frame pattern) baked from files: the shown mesh at three frames is
-the command's (CLI, an OBJ pattern with {frame:04d}), and the same from a mesh object
-whose points are the frame's particles (as Sequence Loader shows an SPH cache); frame 16
-rendered with Cycles,
-motion blur on, into RENDER (a PNG), not empty.
+parameters are one line in Blender's report, no traceback. Then the demo splash (SPLASH,
+a frame pattern; written again with ids and velocities, as SPH solvers write them)
+baked from files: the shown mesh at three frames is the command's (ACTIVESKIN_BIN), and
+its USD shot the command's (`--usd --up z`) byte for byte; the same from a particle system whose point
+cache holds the splash's particles (as tools bring an SPH cache into Blender's particles)
+and from a mesh object whose points are the frame's particles (as Sequence Loader shows
+an SPH cache). With the OpenVDB build: a Mantaflow liquid baked in the scene, skinned
+from its domain's cache as `activeskin skin` (ACTIVESKIN_BIN) skins its files, the VDB
+skins written, the surface placed where Blender's own liquid mesh is. Frame 16 of the
+splash rendered with Cycles, motion blur on, into RENDER (a PNG), not empty.
 """
 
 import math
 import os
+import struct
+import subprocess
 import sys
 
 import bpy
 import numpy as np
 
-parent, cache, splash, cli, render = sys.argv[sys.argv.index("--") + 1 :]
+parent, cache, splash, render = sys.argv[sys.argv.index("--") + 1 :]
+binary = os.environ["ACTIVESKIN_BIN"]
 sys.path.insert(0, parent)
 import activeskin_blender  # noqa: E402
 
@@ -91,14 +98,57 @@ except RuntimeError as e:
 else:
     raise AssertionError("a negative radius was baked")
 
-# The demo splash from its PLY files, as the command dresses it (α = 48).
+# The demo splash, its particles numbered and their velocities (central differences)
+# written beside them, as SPH solvers write theirs.
+read = activeskin_blender._activeskin().read_particles
+drops = [read(splash.replace("####", f"{f:04d}"))["positions"] for f in range(1, 37)]
+assert len({len(p) for p in drops}) == 1, "the splash keeps its particles"
+splash = os.path.join(cache, "splash_in", "drop.####.ply")
+os.makedirs(os.path.dirname(splash))
+for f in range(1, 37):
+    before, after = drops[max(f - 2, 0)], drops[min(f, 35)]
+    velocity = (after - before) * 24.0 / (min(f, 35) - max(f - 2, 0))
+    rows = np.zeros(len(before), [("p", "<f4", 3), ("v", "<f4", 3), ("id", "<i4")])
+    rows["p"], rows["v"], rows["id"] = drops[f - 1], velocity, np.arange(len(before))
+    header = (
+        f"ply\nformat binary_little_endian 1.0\nelement vertex {len(rows)}\n"
+        "property float x\nproperty float y\nproperty float z\n"
+        "property float vx\nproperty float vy\nproperty float vz\n"
+        "property int id\nend_header\n"
+    )
+    with open(splash.replace("####", f"{f:04d}"), "wb") as out:
+        out.write(header.encode() + rows.tobytes())
+# The command's meshes and USD shot of it (α = 48, as the demo dresses it), z up.
+cli = os.path.join(cache, "cli", "m.{frame:04d}.obj")
+cli_usd = os.path.join(cache, "cli", "skin.usda")
+subprocess.run(
+    [binary, "particles", "--particles", splash, "--radius", "0.04", "--alpha", "48",
+     "--mesh", cli.replace("{frame:04d}", "####"), "--usd", cli_usd, "--up", "z", "-q"],
+    check=True,
+)
+
+# The splash from its PLY files, as the command dresses it.
 s.radius = 0.04
 s.alpha = 48.0
 s.source = "FILES"
 s.pattern = splash
 s.frame_start, s.frame_end = 1, 36
 s.cache_dir = os.path.join(cache, "splash")
+s.write_usd = True
 assert bpy.ops.activeskin.bake() == {"FINISHED"}
+s.write_usd = False
+# The USD shot: the stage, its manifest and every frame's layer, the command's.
+theirs_usd = os.path.dirname(cli_usd)
+usd_files = sorted(
+    os.path.relpath(os.path.join(d, f), theirs_usd)
+    for d, _, names in os.walk(theirs_usd) for f in names if f.endswith(".usda")
+)
+assert len(usd_files) == 2 + 36, usd_files
+for name in usd_files:
+    with open(os.path.join(theirs_usd, name), "rb") as a, \
+            open(os.path.join(bpy.path.abspath(s.cache_dir), name), "rb") as b:
+        assert a.read() == b.read(), f"{name}: the add-on's USD differs from the command's"
+print(f"splash USD shot: {len(usd_files)} files, the command's byte for byte")
 
 
 def obj_vertices(path):
@@ -106,8 +156,8 @@ def obj_vertices(path):
         return [tuple(map(float, line.split()[1:4])) for line in f if line.startswith("v ")]
 
 
-def check_against_the_command(what):
-    for frame in (6, 12, 24):
+def check_against_the_command(what, frames=(6, 12, 24)):
+    for frame in frames:
         scene.frame_set(frame)
         shown = bpy.data.objects["ActiveSkin"].data
         theirs = obj_vertices(cli.format(frame=frame))
@@ -116,11 +166,49 @@ def check_against_the_command(what):
             max(abs(a - b) for a, b in zip(v.co, w)) for v, w in zip(shown.vertices, theirs)
         )
         assert worst < 1e-5, (what, frame, worst)
-        print(f"splash from {what}, frame {frame}: {len(theirs)} vertices, "
+        print(f"from {what}, frame {frame}: {len(theirs)} vertices, "
               f"at most {worst:.1e} from the command's")
 
 
 check_against_the_command("its files")
+
+# The splash as a particle system of the scene: its point cache, external, holds each
+# frame's particles (Blender's .bphys: "BPHYSICS", the type, the particle count, the data
+# kept — index, location, velocity — then each particle's), as tools that bring an SPH
+# cache into Blender's particles write it.
+bphys = os.path.join(cache, "bphys")
+os.makedirs(bphys)
+PARTICLES, INDEX, LOCATION, VELOCITY = 1, 1 << 0, 1 << 1, 1 << 2
+count = len(drops[0])
+for frame in range(0, 37):
+    body = b""  # frame 0: the count alone (Blender's info file)
+    if frame:
+        f = read(splash.replace("####", f"{frame:04d}"))
+        rows = np.zeros(count, [("i", "<u4"), ("p", "<f4", 3), ("v", "<f4", 3)])
+        rows["i"], rows["p"], rows["v"] = f["ids"], f["positions"], f["velocities"]
+        body = rows.tobytes()
+    with open(os.path.join(bphys, f"splash_{frame:06d}_00.bphys"), "wb") as out:
+        out.write(b"BPHYSICS" + struct.pack("<III", PARTICLES, count, INDEX | LOCATION | VELOCITY) + body)
+holder = bpy.data.objects.new("splash_particles", bpy.data.meshes.new("splash_particles"))
+holder.data.from_pydata([(0, 0, 0)], [], [])
+scene.collection.objects.link(holder)
+holder.modifiers.new("particles", "PARTICLE_SYSTEM")
+system = holder.particle_systems[0]
+system.settings.count = count
+system.settings.frame_start = system.settings.frame_end = 1
+system.settings.lifetime = 1000
+cache_of = system.point_cache
+cache_of.use_external = True
+cache_of.filepath = bphys
+cache_of.name = "splash"
+cache_of.index = 0
+s.source = "PARTICLES"
+s.emitter = holder
+s.particle_system = ""
+s.cache_dir = os.path.join(cache, "splash_particles")
+assert bpy.ops.activeskin.bake() == {"FINISHED"}
+check_against_the_command("a particle system")
+holder.hide_render = True
 
 # The splash in the scene: a mesh object whose points are each frame's particles, with
 # their `velocity` and `id` point attributes, as Sequence Loader brings an SPH cache into
@@ -160,6 +248,8 @@ scene.frame_set(12)
 splash_object.location = (2.0, -1.0, 0.5)
 splash_object.rotation_euler = (0.0, 0.0, math.pi / 2)
 n = len(splash_mesh.vertices)
+for name in ("velocity", "id"):
+    splash_mesh.attributes.remove(splash_mesh.attributes[name])
 splash_mesh.attributes.new("velocity", "FLOAT_VECTOR", "POINT").data.foreach_set(
     "vector", np.tile(np.float32([1, 2, 3]), n))
 splash_mesh.attributes.new("id", "INT", "POINT").data.foreach_set(
@@ -215,4 +305,83 @@ image.pixels.foreach_get(pixels)
 covered = float((pixels[3::4] > 0.5).mean())
 assert covered > 0.01, covered
 print(f"rendered frame 16: the surface covers {100 * covered:.1f} % of the image")
+
+# A Mantaflow liquid baked in the scene (a ball dropped into a pool, 32 cells, 8 frames),
+# skinned from its domain's OpenVDB cache: the command's meshes and VDB skins, the surface
+# where Blender's own liquid mesh is.
+activeskin = activeskin_blender._activeskin()
+if not activeskin.HAS_VDB:
+    print("Mantaflow: skipped, this activeskin was built without OpenVDB")
+else:
+    manta = os.path.join(cache, "manta")
+    scene.frame_start, scene.frame_end = 1, 8
+    bpy.ops.mesh.primitive_cube_add(size=2, location=(4, 0, 1))
+    domain = bpy.context.object
+    fluid = domain.modifiers.new("Fluid", "FLUID")
+    fluid.fluid_type = "DOMAIN"
+    d = fluid.domain_settings
+    d.domain_type = "LIQUID"
+    d.resolution_max = 32
+    d.cache_directory = manta
+    d.cache_type = "ALL"
+    d.cache_data_format = "OPENVDB"
+    d.cache_frame_start, d.cache_frame_end = 1, 8
+    d.use_mesh = True
+    # Blender keeps phi only in a resumable cache (a final one holds particles and velocity).
+    d.cache_resumable = True
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.3, location=(4, 0, 1.45))
+    bpy.ops.mesh.primitive_cube_add(size=2, location=(4, 0, 0.25))
+    bpy.context.object.scale = (0.97, 0.97, 0.125)
+    for flow in (bpy.data.objects["Sphere"], bpy.context.object):
+        m = flow.modifiers.new("Fluid", "FLUID")
+        m.fluid_type = "FLOW"
+        m.flow_settings.flow_type = "LIQUID"
+        m.flow_settings.flow_behavior = "GEOMETRY"
+        flow.hide_render = True
+    bpy.context.view_layer.objects.active = domain
+    with bpy.context.temp_override(object=domain, active_object=domain):
+        assert bpy.ops.fluid.bake_all() == {"FINISHED"}
+    pattern = os.path.join(manta, "data", "fluid_data_####.vdb")
+    assert os.path.isfile(pattern.replace("####", "0008")), os.listdir(manta)
+
+    s.source = "MANTAFLOW"
+    s.emitter = domain
+    s.alpha = 4.0
+    s.frame_start, s.frame_end = 1, 8
+    s.cache_dir = os.path.join(cache, "manta_skin")
+    s.write_vdb = True
+    assert bpy.ops.activeskin.bake() == {"FINISHED"}
+    theirs = os.path.join(cache, "cli_manta")
+    subprocess.run(
+        [binary, "skin", "--target", pattern, "--mesh", os.path.join(theirs, "m.####.obj"),
+         "--out", os.path.join(theirs, "s.####.vdb"), "-q"],
+        check=True,
+    )
+    cli = os.path.join(theirs, "m.{frame:04d}.obj")
+    check_against_the_command("a Mantaflow domain", frames=(3, 6, 8))
+    for frame in (3, 8):
+        # The same bytes but the random UUID after the file's 21-byte header.
+        with open(os.path.join(theirs, f"s.{frame:04d}.vdb"), "rb") as a, \
+                open(os.path.join(bpy.path.abspath(s.cache_dir), f"skin_{frame:04d}.vdb"), "rb") as b:
+            a, b = a.read(), b.read()
+            assert a[:21] + a[57:] == b[:21] + b[57:], f"frame {frame}: the add-on's VDB differs from the command's"
+    print("Mantaflow: the VDB skins (surface and v) the command's")
+
+    # Placed where Blender shows the liquid: its own mesh of the cache (smoothed,
+    # at twice the resolution) and the skin's bounds agree within a cell and a half.
+    scene.frame_set(8)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    blenders = domain.evaluated_get(depsgraph)
+
+    def bounds(obj):
+        m = obj.matrix_world
+        points = np.array([tuple(m @ v.co) for v in obj.data.vertices])
+        return points.min(axis=0), points.max(axis=0)
+
+    (lo_b, hi_b), (lo_s, hi_s) = bounds(blenders), bounds(bpy.data.objects["ActiveSkin"])
+    dx = 2.0 / 32
+    off = max(np.abs(lo_b - lo_s).max(), np.abs(hi_b - hi_s).max()) / dx
+    print(f"Mantaflow frame 8: the skin's bounds within {off:.2f} cells of Blender's liquid mesh")
+    assert off < 1.5, (lo_b, hi_b, lo_s, hi_s)
+
 print("ADDON OK")

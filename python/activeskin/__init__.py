@@ -36,6 +36,7 @@ __all__ = [
     "__version__",
     "particles_sequence",
     "read_particles",
+    "skin_for_sequence",
     "skin_sequence",
 ] + (["measure_velocity"] if HAS_VDB else [])
 
@@ -123,28 +124,25 @@ def particles_sequence(pattern, radius, *, frames=None, mesh=None, progress=None
     return count
 
 
-def skin_sequence(pattern, *, frames=None, mesh=None, out=None, progress=None, grid=None,
-                  velocity=None, velocity_scale="auto", velocity_time="auto", **options):
-    """The ``skin`` command as a function: skins the VDB files of ``pattern`` (level sets,
-    or fog volumes with ``iso=``; their ``grid``, else the first float grid) over
-    ``frames`` (first, last; every frame found by default), carried by each file's
-    velocity (``velocity``: None for its ``vel``, ``v`` or ``velocity`` grid, False for
-    none, or a grid's name), writing each frame's mesh to the ``mesh`` pattern and its
-    skin to the ``out`` VDB pattern when given, and calling ``progress(mesh)`` after each
-    frame. As the command, ``velocity_scale`` and ``velocity_time`` are measured from the
-    surface's own motion unless given ("auto"; a velocity that does not explain the
-    motion is left out, with a warning). ``options`` are ``LevelSetSkin``'s (voxel_size,
-    alpha, beta, fps, units, init, ...). Returns the number of frames skinned: the
-    command's frames, byte for byte. Needs a build with OpenVDB (``HAS_VDB``).
-    """
+def _need_vdb():
     if not HAS_VDB:
         raise RuntimeError(
             "this activeskin was built without OpenVDB: build the wheel with "
             "`maturin build --release --features vdb` to read VDB files"
         )
-    found = _frames_found(pattern)
-    first, last = _frame_range(pattern, frames, found)
-    _make_folders(first, mesh, out)
+
+
+def skin_for_sequence(pattern, *, frames, first_frame=None, grid=None, velocity=None,
+                      velocity_scale="auto", velocity_time="auto", **options):
+    """The skin ``skin_sequence`` advances over the VDB files of ``pattern`` for ``frames``
+    (first, last), and the ``velocity`` to hand each of its ``advance`` calls: the
+    velocity's scale and timing measured over ``frames`` as the command measures them
+    unless given (a velocity that does not explain the motion is left out, with a
+    warning, and the velocity returned is False). ``first_frame`` (``frames``' first by
+    default) starts the skin later, as a resumed bake or a farm chunk does, with the
+    measure still made over all of ``frames``. Needs HAS_VDB."""
+    _need_vdb()
+    first, last = frames
     timing = None if velocity_time == "auto" else velocity_time
     if velocity is not False and velocity_scale == "auto":
         measured = measure_velocity(
@@ -156,15 +154,43 @@ def skin_sequence(pattern, *, frames=None, mesh=None, out=None, progress=None, g
         velocity_scale = 1.0
         if measured is not None:
             if measured["scale"] is None:
-                warnings.warn(measured["note"], stacklevel=2)
+                warnings.warn(measured["note"], stacklevel=3)
                 velocity = False
             else:
                 velocity_scale = measured["scale"]
             timing = measured["timing"]
     elif velocity_scale == "auto":
         velocity_scale = 1.0
-    skin = LevelSetSkin(first_frame=first, velocity_scale=velocity_scale,
-                        velocity_time=timing or "start", **options)
+    skin = LevelSetSkin(first_frame=first if first_frame is None else first_frame,
+                        velocity_scale=velocity_scale, velocity_time=timing or "start",
+                        grid=grid, **options)
+    return skin, velocity
+
+
+def skin_sequence(pattern, *, frames=None, mesh=None, out=None, progress=None, grid=None,
+                  velocity=None, velocity_scale="auto", velocity_time="auto", **options):
+    """The ``skin`` command as a function: skins the VDB files of ``pattern`` (level sets,
+    or fog volumes with ``iso=``; their ``grid``, else ``surface`` or ``phi``, else the first float grid) over
+    ``frames`` (first, last; every frame found by default), carried by each file's
+    velocity (``velocity``: None for its ``vel``, ``v`` or ``velocity`` grid, False for
+    none, or a grid's name), writing each frame's mesh to the ``mesh`` pattern and its
+    skin to the ``out`` VDB pattern when given, and calling ``progress(mesh)`` after each
+    frame. As the command, ``velocity_scale`` and ``velocity_time`` are measured from the
+    surface's own motion unless given ("auto"; a velocity that does not explain the
+    motion is left out, with a warning). ``options`` are ``LevelSetSkin``'s (voxel_size,
+    alpha, beta, fps, units, init, ...). Returns the number of frames skinned: the
+    command's frames, byte for byte. Needs a build with OpenVDB (``HAS_VDB``).
+    """
+    _need_vdb()
+    found = _frames_found(pattern)
+    first, last = _frame_range(pattern, frames, found)
+    _make_folders(first, mesh, out)
+    # The VDBs written hold the surface's velocity as grid v, as the command's --out.
+    options.setdefault("velocity_grid", out is not None)
+    skin, velocity = skin_for_sequence(
+        pattern, frames=(first, last), grid=grid, velocity=velocity,
+        velocity_scale=velocity_scale, velocity_time=velocity_time, **options,
+    )
     count = 0
     for frame in range(first, last + 1):
         surface = skin.advance(_frame_path(pattern, frame), velocity, grid=grid)

@@ -60,13 +60,16 @@ class ParticleSkin:
         first_frame: int = 1,
         ignore_radii: bool = False,
         volume_reference: tuple[int, npt.ArrayLike, npt.ArrayLike | None] | None = None,
+        velocity_grid: bool = False,
     ) -> None:
         """radius: half the particles' rest spacing; voxel_size defaults to radius/2;
         alpha (1/s) the attraction; beta (world units²/s) the surface tension, by default
         alpha·voxel²/8; attributes: names to carry onto the surface, or ["all"];
         volume_reference: (frame, positions, radii or None) of the sequence's first
         frame when the skin starts later (the volume those particles stand for is held,
-        as the command holds it).
+        as the command holds it); velocity_grid: the surface's velocity at the skin's
+        voxels too, each frame, which save_vdb writes as grid v as the command's --out
+        does (on the dam break it adds about half to a frame's time).
         Raises ValueError with the command's message for parameters that cannot make a
         skin."""
 
@@ -91,8 +94,8 @@ class ParticleSkin:
     def stats(self) -> dict[str, float | int] | None:
         """The last frame's measures."""
     def save_vdb(self, path: str | PathLike[str]) -> None:
-        """Writes the last frame's skin as a VDB level set (grid `surface`), as the
-        command's --out does. Needs HAS_VDB."""
+        """Writes the last frame's skin as a VDB level set (grid `surface`, and `v` with
+        velocity_grid), as the command's --out does. Needs HAS_VDB."""
 
 Target = str | PathLike[str] | npt.ArrayLike
 
@@ -121,6 +124,7 @@ class LevelSetSkin:
         spacing: float | None = None,
         origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
         grid: str | None = None,
+        velocity_grid: bool = False,
     ) -> None:
         """voxel_size: the skin's, by default the first target's; alpha (1/s) the
         attraction; beta the surface tension (default alpha·voxel²/8); velocity_time
@@ -129,7 +133,9 @@ class LevelSetSkin:
         sets' distances are in ("auto" measures |∇φ|, "world", "voxel"); seed: grow the
         skin where the target has material it has none near (False for a morph); init:
         the shape to start on instead of the first target (its `grid`); spacing, origin:
-        where array targets' voxels are (voxel (i, j, k) at origin + (i, j, k)·spacing).
+        where array targets' voxels are (voxel (i, j, k) at origin + (i, j, k)·spacing);
+        velocity_grid: the surface's velocity at the skin's voxels too, which save_vdb
+        writes as grid v (as the command's --out).
         Raises ValueError with the command's message for parameters that cannot make a
         skin."""
 
@@ -155,8 +161,8 @@ class LevelSetSkin:
     def stats(self) -> dict[str, float | int] | None:
         """The last frame's measures."""
     def save_vdb(self, path: str | PathLike[str]) -> None:
-        """Writes the last frame's skin as a VDB level set (grid `surface`), as the
-        command's --out does. Needs HAS_VDB."""
+        """Writes the last frame's skin as a VDB level set (grid `surface`, and `v` with
+        velocity_grid), as the command's --out does. Needs HAS_VDB."""
 
 def read_particles(path: str | PathLike[str]) -> dict[str, object]:
     """One particle file as the command reads it (PLY, VTK, VTU, BGEO, JSON, CSV, XYZ):
@@ -185,6 +191,23 @@ def particles_sequence(
     """The `particles` command as a function: the files of `pattern` (#### or %04d padded,
     # unpadded) over `frames`, each frame's mesh written to the `mesh` pattern, progress
     called after each frame. The command's meshes, byte for byte."""
+
+def skin_for_sequence(
+    pattern: str | PathLike[str],
+    *,
+    frames: tuple[int, int],
+    first_frame: int | None = None,
+    grid: str | None = None,
+    velocity: str | bool | None = None,
+    velocity_scale: float | str = "auto",
+    velocity_time: str = "auto",
+    **options: object,
+) -> tuple[LevelSetSkin, str | bool | None]:
+    """The skin skin_sequence advances over the VDB files of `pattern` for `frames`, and
+    the velocity to hand each advance: the velocity's scale and timing measured over
+    `frames` as the command does unless given (False when it does not explain the
+    motion, with a warning). first_frame starts the skin later (a resumed bake, a farm
+    chunk), measured over all of `frames` still. Needs HAS_VDB."""
 
 def skin_sequence(
     pattern: str | PathLike[str],

@@ -10,7 +10,7 @@ use activeskin::flow::Timing;
 use activeskin::frames::{
     dense_grid, write_usd_frame, AttributeChoice, FrameError, FrameStream, FrameSurface,
     LevelSetFrame, LevelSetSpec, LevelSetStream, ParticleInput, ParticleStream, StreamSpec,
-    TargetUnits, UsdSpec,
+    TargetUnits, UsdSpec, VoxelVelocities,
 };
 use activeskin::io::mesh::{write_with_values, VertexValues};
 use activeskin::mesh::Mesh as SkinMesh;
@@ -162,7 +162,7 @@ impl Mesh {
     }
 
     /// The mesh of `surface`, and its settled skin.
-    fn new(py: Python<'_>, surface: FrameSurface, time: f64) -> PyResult<(Self, GridData)> {
+    fn new(py: Python<'_>, surface: FrameSurface, time: f64) -> PyResult<(Self, SettledSkin)> {
         let FrameSurface {
             frame,
             mesh,
@@ -170,6 +170,7 @@ impl Mesh {
             attributes,
             stats,
             level_set,
+            voxel_velocities,
         } = surface;
         let n_triangles = mesh.triangles.len();
         let triangles: Vec<u32> = {
@@ -202,7 +203,7 @@ impl Mesh {
             frame,
             stats: measures.unbind(),
         };
-        Ok((mesh, level_set))
+        Ok((mesh, (frame, level_set, voxel_velocities)))
     }
 }
 
@@ -269,6 +270,10 @@ impl Mesh {
     }
 }
 
+/// A frame's number, settled skin and the surface's velocity at its voxels (when asked
+/// for): what its VDB holds.
+type SettledSkin = (i64, GridData, Option<VoxelVelocities>);
+
 /// A skin's frame loop on its thread, and what Python sees of it.
 struct Stepper<T> {
     /// Behind a mutex for Python's threads (`&mut self` methods reach it without locking).
@@ -280,7 +285,7 @@ struct Stepper<T> {
     /// The surface of the frame last advanced to.
     last: Option<Py<Mesh>>,
     /// Its settled skin, for `save_vdb`.
-    level_set: Option<(i64, GridData)>,
+    level_set: Option<SettledSkin>,
 }
 
 impl<T: Send + 'static> Stepper<T> {
@@ -333,9 +338,8 @@ impl<T: Send + 'static> Stepper<T> {
             }
         };
         let time = (surface.frame - self.first_frame) as f64 / self.fps;
-        let frame = surface.frame;
-        let (mesh, level_set) = Mesh::new(py, surface, time)?;
-        self.level_set = Some((frame, level_set));
+        let (mesh, settled) = Mesh::new(py, surface, time)?;
+        self.level_set = Some(settled);
         let mesh = Py::new(py, mesh)?;
         self.last = Some(mesh.clone_ref(py));
         Ok(mesh)
@@ -351,12 +355,14 @@ impl<T: Send + 'static> Stepper<T> {
 
     #[cfg(feature = "vdb")]
     fn save_vdb(&self, py: Python<'_>, path: &std::path::Path) -> PyResult<()> {
-        let (frame, level_set) = self
+        let (frame, level_set, velocities) = self
             .level_set
             .as_ref()
             .ok_or_else(|| PyRuntimeError::new_err("no frame yet: advance the skin first"))?;
-        py.detach(|| activeskin::frames::write_skin_vdb(path, *frame, level_set, None))
-            .map_err(|e| pyo3::exceptions::PyOSError::new_err(e.to_string()))
+        py.detach(|| {
+            activeskin::frames::write_skin_vdb(path, *frame, level_set, velocities.as_ref())
+        })
+        .map_err(|e| pyo3::exceptions::PyOSError::new_err(e.to_string()))
     }
 
     #[cfg(not(feature = "vdb"))]
@@ -398,7 +404,7 @@ struct ParticleSkin {
 #[pymethods]
 impl ParticleSkin {
     #[new]
-    #[pyo3(signature = (radius, *, voxel_size=None, alpha=4.0, beta=None, smoothing_length=2.0, iso=None, fps=24.0, velocities=true, hold_volume=true, attributes=None, first_frame=1, ignore_radii=false, volume_reference=None))]
+    #[pyo3(signature = (radius, *, voxel_size=None, alpha=4.0, beta=None, smoothing_length=2.0, iso=None, fps=24.0, velocities=true, hold_volume=true, attributes=None, first_frame=1, ignore_radii=false, volume_reference=None, velocity_grid=false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         radius: f32,
@@ -414,6 +420,7 @@ impl ParticleSkin {
         first_frame: i64,
         ignore_radii: bool,
         volume_reference: Option<Reference>,
+        velocity_grid: bool,
     ) -> PyResult<Self> {
         let defaults = ParticleInput::with_radius(radius);
         let choice = match attributes {
@@ -452,6 +459,7 @@ impl ParticleSkin {
             fps,
             hold_volume,
             velocities,
+            velocity_grid,
             first_frame,
             reference,
         };
@@ -753,7 +761,7 @@ struct LevelSetSkin {
 #[pymethods]
 impl LevelSetSkin {
     #[new]
-    #[pyo3(signature = (*, voxel_size=None, alpha=4.0, beta=None, volume_gain=0.0, area_gain=0.0, fps=24.0, velocities=true, velocity_time="start", velocity_scale=1.0, iso=None, units="auto", first_frame=1, seed=true, init=None, spacing=None, origin=(0.0, 0.0, 0.0), grid=None))]
+    #[pyo3(signature = (*, voxel_size=None, alpha=4.0, beta=None, volume_gain=0.0, area_gain=0.0, fps=24.0, velocities=true, velocity_time="start", velocity_scale=1.0, iso=None, units="auto", first_frame=1, seed=true, init=None, spacing=None, origin=(0.0, 0.0, 0.0), grid=None, velocity_grid=false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -774,6 +782,7 @@ impl LevelSetSkin {
         spacing: Option<f32>,
         origin: (f64, f64, f64),
         grid: Option<String>,
+        velocity_grid: bool,
     ) -> PyResult<Self> {
         let timing = match velocity_time {
             "start" => Timing::Start,
@@ -807,6 +816,7 @@ impl LevelSetSkin {
             iso,
             units: units_named(units)?,
             velocities,
+            velocity_grid,
             first_frame,
             seed,
             init,

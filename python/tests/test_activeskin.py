@@ -347,7 +347,7 @@ def test_skin_sequence_is_the_skin_command(binary, tmp_path):
         # The skins written are VDB level sets the command reads.
         info = subprocess.run([binary, "info", str(tmp_path / "vdb" / f"s.{f:04d}.vdb")],
                               capture_output=True, text=True, check=True).stdout
-        assert "grid 'surface'" in info and "level set" in info
+        assert "grid 'surface'" in info and "level set" in info and "grid 'v'" in info
 
 
 @needs_vdb

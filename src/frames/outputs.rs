@@ -93,11 +93,18 @@ pub struct Surface<'a> {
     pub stats: &'a StepStats,
     /// The settled skin, as its VDB holds it.
     pub level_set: &'a GridData,
+    /// The surface's velocity at the settled skin's voxels, when the sink asked for it
+    /// (the skin VDB's grid `v`).
+    pub voxel_velocities: Option<&'a VoxelVelocities>,
 }
 
 /// Who is told of each frame's [`Surface`].
 #[derive(Clone)]
-pub struct SurfaceSink(pub Arc<dyn Fn(&Surface) + Send + Sync>);
+pub struct SurfaceSink {
+    pub each: Arc<dyn Fn(&Surface) + Send + Sync>,
+    /// Also the surface's velocity at the skin's voxels, as `--out` writes it.
+    pub voxel_velocities: bool,
+}
 
 impl std::fmt::Debug for SurfaceSink {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -257,7 +264,9 @@ impl Outputs {
             .is_some_and(|r| crate::io::has_extension(&r.0.path(0), &["exr"]));
         (
             self.velocities && mesh,
-            self.velocities && self.out.is_some(),
+            self.velocities
+                && (self.out.is_some()
+                    || self.surfaces.as_ref().is_some_and(|s| s.voxel_velocities)),
             self.velocities && exr,
         )
     }
@@ -312,12 +321,13 @@ impl Outputs {
             shot.write_frame(frame, skin.mesh(), values)?;
         }
         if let Some(sink) = &self.surfaces {
-            (sink.0)(&Surface {
+            (sink.each)(&Surface {
                 frame,
                 mesh: skin.mesh(),
                 values,
                 stats,
                 level_set,
+                voxel_velocities: velocities.grid.as_ref(),
             });
         }
         if let Some((pattern, size, camera)) = &mut self.render {

@@ -15,7 +15,7 @@ use glam::Vec3;
 
 use super::{
     target_from_grid, FrameError, FrameInput, InputFrames, OutputSpec, Outputs, ParticleInput,
-    ParticleRun, ParticleSource, Surface, SurfaceSink, TargetRead, TargetUnits,
+    ParticleRun, ParticleSource, Surface, SurfaceSink, TargetRead, TargetUnits, VoxelVelocities,
 };
 use crate::flow::{Flow, GridFlow, Timing};
 use crate::mesh::Mesh;
@@ -36,6 +36,9 @@ pub struct FrameSurface {
     pub stats: StepStats,
     /// The settled skin, as its VDB holds it.
     pub level_set: GridData,
+    /// The surface's velocity at the settled skin's voxels, when asked for
+    /// (`velocity_grid`): what `--out` writes beside it as grid `v`.
+    pub voxel_velocities: Option<VoxelVelocities>,
 }
 
 /// How a stream is set up: what a `particles` run is given besides its files.
@@ -48,6 +51,8 @@ pub struct StreamSpec {
     pub hold_volume: bool,
     /// The surface's velocity at the vertices.
     pub velocities: bool,
+    /// With `velocities`, at the settled skin's voxels too ([`FrameSurface::voxel_velocities`]).
+    pub velocity_grid: bool,
     /// The number of the first frame handed over.
     pub first_frame: i64,
     /// The particles of the sequence's first frame and its number, when the stream
@@ -111,7 +116,7 @@ impl FrameStream<Particles> {
             }
         }
         spec.params.check()?;
-        FrameStream::spawn(move |handed, sink| {
+        FrameStream::spawn(spec.velocity_grid, move |handed, sink| {
             let source = Handed {
                 frames: handed,
                 reference: spec.reference.clone(),
@@ -125,6 +130,7 @@ impl<T: Send + 'static> FrameStream<T> {
     /// Runs `body` on a thread of its own, handed the frames sent and a sink for their
     /// surfaces.
     fn spawn(
+        velocity_grid: bool,
         body: impl FnOnce(Receiver<T>, SurfaceSink) -> Result<(), FrameError> + Send + 'static,
     ) -> Result<Self, FrameError> {
         let (frames, handed) = sync_channel::<T>(1);
@@ -133,7 +139,7 @@ impl<T: Send + 'static> FrameStream<T> {
             .name("activeskin frames".into())
             .spawn(move || {
                 let errors = send_surface.clone();
-                let sink = SurfaceSink(Arc::new(move |s: &Surface| {
+                let each = Arc::new(move |s: &Surface| {
                     let _ = send_surface.send(Ok(FrameSurface {
                         frame: s.frame,
                         mesh: s.mesh.clone(),
@@ -141,8 +147,13 @@ impl<T: Send + 'static> FrameStream<T> {
                         attributes: s.values.attributes.to_vec(),
                         stats: *s.stats,
                         level_set: s.level_set.clone(),
+                        voxel_velocities: s.voxel_velocities.cloned(),
                     }));
-                }));
+                });
+                let sink = SurfaceSink {
+                    each,
+                    voxel_velocities: velocity_grid,
+                };
                 if let Err(e) = body(handed, sink) {
                     let _ = errors.send(Err(e));
                 }
@@ -283,6 +294,8 @@ pub struct LevelSetSpec {
     pub units: TargetUnits,
     /// The surface's velocity at the vertices.
     pub velocities: bool,
+    /// With `velocities`, at the settled skin's voxels too ([`FrameSurface::voxel_velocities`]).
+    pub velocity_grid: bool,
     /// The number of the first frame handed over.
     pub first_frame: i64,
     /// Seed the skin where the target has material it has none near (`skin`: a
@@ -310,7 +323,9 @@ impl FrameStream<LevelSetFrame> {
         spec.physics
             .params(spec.physics.voxel_size.unwrap_or(1.0))
             .check()?;
-        FrameStream::spawn(move |handed, sink| run_level_sets(spec, handed, sink))
+        FrameStream::spawn(spec.velocity_grid, move |handed, sink| {
+            run_level_sets(spec, handed, sink)
+        })
     }
 }
 

@@ -107,6 +107,21 @@ impl Layout {
         format!("grids: {}", list.join(", "))
     }
 
+    /// What a Mantaflow liquid cache without `phi` lacks: Blender writes only the
+    /// particles and velocity the final surface needs unless the cache is resumable.
+    fn mantaflow_hint(&self) -> &'static str {
+        let has = |name: &str, kind: &str| {
+            self.grids
+                .iter()
+                .any(|(g, k)| base_name(g) == name && value_type(k).starts_with(kind))
+        };
+        if has("particles", "ptdataidx") && has("velocity", "vec3") && !has("phi", "") {
+            "; a Mantaflow cache keeps phi only when baked resumable: tick the domain's Cache > Is Resumable and bake again"
+        } else {
+            ""
+        }
+    }
+
     /// The grid `wanted` names: a grid of that name (the first of several), of that
     /// printed unique name (`a[1]`, `[0]`), else the grid at that index in file order.
     fn find(&self, wanted: &str) -> Option<&(String, String)> {
@@ -154,7 +169,12 @@ impl Layout {
         let is_float = |kind: &str| kind.starts_with("Tree_float_");
         match name {
             Some(n) => match self.find(n) {
-                None => Err(format!("no grid named '{n}' ({})", self.describe_grids()).into()),
+                None => Err(format!(
+                    "no grid named '{n}' ({}){}",
+                    self.describe_grids(),
+                    self.mantaflow_hint()
+                )
+                .into()),
                 Some((_, kind)) if !is_float(kind) => {
                     Err(format!("grid '{n}' is a {kind}, not a float grid").into())
                 }
@@ -165,7 +185,14 @@ impl Layout {
                 .find_map(|n| self.grids.iter().find(|(g, kind)| g == n && is_float(kind)))
                 .or_else(|| self.grids.iter().find(|(_, kind)| is_float(kind)))
                 .map(|(g, _)| printable_name(g))
-                .ok_or_else(|| format!("no float grid ({})", self.describe_grids()).into()),
+                .ok_or_else(|| {
+                    format!(
+                        "no float grid ({}){}",
+                        self.describe_grids(),
+                        self.mantaflow_hint()
+                    )
+                    .into()
+                }),
         }
     }
 }
@@ -425,6 +452,55 @@ mod tests {
             let err = check_bytes(&f[..cut]).unwrap_err();
             assert!(!err.contains('\n'), "{err}");
         }
+    }
+
+    fn layout(grids: &[(&str, &str)]) -> Layout {
+        Layout {
+            version: 224,
+            has_offsets: true,
+            grids: grids
+                .iter()
+                .map(|(n, k)| (n.to_string(), k.to_string()))
+                .collect(),
+            memory: vec![None; grids.len()],
+        }
+    }
+
+    /// Without a name, a simulation's level set before the file's first float grid; a
+    /// Mantaflow cache without `phi` (not resumable) says how to get one.
+    #[test]
+    fn the_float_grid_chosen() {
+        let float = "Tree_float_5_4_3";
+        let mantaflow = layout(&[
+            ("velocity", "Tree_vec3s_5_4_3"),
+            ("phi_obstacle", float),
+            ("phi", float),
+        ]);
+        assert_eq!(mantaflow.choose_float_grid(None).unwrap(), "phi");
+        assert_eq!(
+            mantaflow.choose_float_grid(Some("phi_obstacle")).unwrap(),
+            "phi_obstacle"
+        );
+        let houdini = layout(&[("density", float), ("surface", float)]);
+        assert_eq!(houdini.choose_float_grid(None).unwrap(), "surface");
+        let other = layout(&[("density", float), ("temperature", float)]);
+        assert_eq!(other.choose_float_grid(None).unwrap(), "density");
+        let final_cache = layout(&[
+            ("velocity", "Tree_vec3s_5_4_3"),
+            ("particles", "Tree_ptdataidx32_5_4_3"),
+        ]);
+        for name in [None, Some("phi")] {
+            let e = final_cache.choose_float_grid(name).unwrap_err().to_string();
+            assert!(
+                e.ends_with("tick the domain's Cache > Is Resumable and bake again"),
+                "{e}"
+            );
+        }
+        let e = other
+            .choose_float_grid(Some("phi"))
+            .unwrap_err()
+            .to_string();
+        assert!(!e.contains("Resumable"), "{e}");
     }
 
     #[test]
