@@ -755,12 +755,6 @@ fn enrights_deformation_is_followed_as_closely_as_meshing_it() {
             })
         },
     );
-    for f in [12usize, 24, 36, 48, 60, 71] {
-        let t = time(f);
-        let sk = 0;
-        let _ = sk;
-        let _ = t;
-    }
     println!(
         "Enright's deformation, clean cache, α 48: {:.3} voxel from the truth (worst frame {:.3}, median {:.3}), per-frame meshing {:.3}",
         run.mean, run.worst_frame, run.median, run.per_frame_meshing
