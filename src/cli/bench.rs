@@ -59,7 +59,8 @@ pub struct BenchArgs {
     full: bool,
     /// Also race splashsurf on particles: a SPlisHSPlasH dam break in motion (baked once
     /// into ~/.cache/activeskin/sph, or ACTIVESKIN_SPH_CACHE, with pysplishsplash; skipped
-    /// when it cannot be), time, volume, particles outside, temporal noise and flicker;
+    /// when it cannot be) and a smoothly twisting ellipsoid of particles (whose true
+    /// surface is smooth in time), time, volume, particles outside, temporal noise and flicker;
     /// 100 k and 1 M particles at rest, ms per frame; distance to the true surface and
     /// flicker on a fluid at rest. splashsurf is installed into the cache folder with
     /// cargo when not found.
@@ -68,10 +69,11 @@ pub struct BenchArgs {
     /// Only the particle races (with --particles).
     #[arg(long, requires = "particles")]
     particles_only: bool,
-    /// Only the dam break (with --particles-only): for trying settings against splashsurf.
+    /// Only the races in motion, the dam break and the smooth twist (with
+    /// --particles-only): for trying settings against splashsurf.
     #[arg(long, requires = "particles_only")]
     sph_only: bool,
-    /// Extra options for our `particles` run on the dam break, e.g. "--alpha 16" (with
+    /// Extra options for our `particles` runs in motion, e.g. "--alpha 16" (with
     /// --particles): the same race and measures for other settings.
     #[arg(long, requires = "particles", allow_hyphen_values = true)]
     sph_args: Option<String>,
