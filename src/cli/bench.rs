@@ -77,6 +77,13 @@ pub struct BenchArgs {
     /// --particles): the same race and measures for other settings.
     #[arg(long, requires = "particles", allow_hyphen_values = true)]
     sph_args: Option<String>,
+    /// Also race each shot in motion at twice its frame rate (with --particles): the dam
+    /// break baked once more at 48 fps (its every other frame is the 24 fps shot of the
+    /// same simulation) and the twist at 48 fps. A tool's own flicker does not depend on
+    /// the frame rate; what the liquid's motion adds to the measures halves with the
+    /// frame interval.
+    #[arg(long, requires = "particles")]
+    frame_rates: bool,
     /// The splashsurf binary to race (default: on the PATH, or in ~/.cache/activeskin).
     #[arg(long, requires = "particles")]
     splashsurf: Option<std::path::PathBuf>,
@@ -176,6 +183,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             particles::Races {
                 at_rest: !args.sph_only,
                 sph_args: args.sph_args.as_deref().unwrap_or(""),
+                frame_rates: args.frame_rates,
             },
             &mut lines,
             &mut report,

@@ -158,6 +158,8 @@ pub struct Races<'a> {
     pub at_rest: bool,
     /// Extra options for our run on the dam break, split at whitespace.
     pub sph_args: &'a str,
+    /// The races in motion at two frame rates too ([`super::sph::race`]).
+    pub frame_rates: bool,
 }
 
 pub fn run(
@@ -174,11 +176,18 @@ pub fn run(
         }
     };
     let root = std::env::temp_dir().join(format!("activeskin-bench-{}", std::process::id()));
-    let result = super::sph::race(&root, splashsurf.as_deref(), which.sph_args, lines, report)
-        .and_then(|()| match which.at_rest {
-            true => races(&root, splashsurf.as_deref(), lines, report),
-            false => Ok(()),
-        });
+    let result = super::sph::race(
+        &root,
+        splashsurf.as_deref(),
+        which.sph_args,
+        which.frame_rates,
+        lines,
+        report,
+    )
+    .and_then(|()| match which.at_rest {
+        true => races(&root, splashsurf.as_deref(), lines, report),
+        false => Ok(()),
+    });
     // The clouds and meshes are large: never left behind.
     let _ = std::fs::remove_dir_all(&root);
     result

@@ -33,20 +33,31 @@ use super::timed;
 /// The shots' file names, frame numbers unpadded as SPlisHSPlasH writes them.
 const STEM: &str = "dam_break_";
 
-/// A particle shot to race on: `frames` files `{STEM}{f}.ply` in `dir`, particles of
-/// radius `r`, named `name` in the lines and `key` in the JSON report.
+/// A particle shot to race on: `frames` files `{STEM}{f}.ply` in `dir` at `fps`,
+/// particles of radius `r`, named `name` in the lines and `key` in the JSON report.
 struct Shot {
-    name: &'static str,
-    key: &'static str,
+    name: String,
+    key: String,
     dir: PathBuf,
     frames: usize,
+    fps: f32,
     r: f32,
 }
 
-/// The baked cache, baked now when missing and the bake can run; else why not.
-fn cache() -> Result<(PathBuf, usize, f32), String> {
-    let dir = super::cache_dir(Some("ACTIVESKIN_SPH_CACHE"), "sph/dam_break")
+/// The dam break's baked cache at `fps` (`frames` frames: 36 at 24 fps, 1.46 s), baked
+/// now when missing and the bake can run; else why not. The 24 fps cache is
+/// `ACTIVESKIN_SPH_CACHE` when set, another rate's sits next to it.
+fn cache(fps: f32, frames: usize) -> Result<Shot, String> {
+    let mut dir = super::cache_dir(Some("ACTIVESKIN_SPH_CACHE"), "sph/dam_break")
         .ok_or("no HOME to cache it in")?;
+    let mut name = "SPH dam break".to_string();
+    let mut key = "particles_sph".to_string();
+    if fps != DAM_BREAK_FPS {
+        let suffix = format!("_{fps}fps");
+        dir.as_mut_os_string().push(&suffix);
+        name += &format!(" at {fps} fps");
+        key += &suffix;
+    }
     let done = dir.join("done");
     if !done.is_file() {
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/sph/bake_dam_break.py");
@@ -60,6 +71,7 @@ fn cache() -> Result<(PathBuf, usize, f32), String> {
         let out = Command::new("python3")
             .arg(&script)
             .arg(&dir)
+            .args(["--fps", &fps.to_string(), "--frames", &frames.to_string()])
             .output()
             .map_err(|e| format!("cannot run python3: {e}"))?;
         if !out.status.success() || !done.is_file() {
@@ -75,8 +87,44 @@ fn cache() -> Result<(PathBuf, usize, f32), String> {
         .and_then(|b| serde_json::from_slice(&b).ok())
         .ok_or(format!("{}: unreadable", done.display()))?;
     let frames = meta["frames"].as_u64().ok_or("no frame count")? as usize;
-    let radius = meta["radius"].as_f64().ok_or("no radius")? as f32;
-    Ok((dir, frames, radius))
+    let r = meta["radius"].as_f64().ok_or("no radius")? as f32;
+    // Caches baked before the rate was written are at 24 fps.
+    let fps = meta["fps"].as_f64().map_or(DAM_BREAK_FPS, |f| f as f32);
+    Ok(Shot {
+        name,
+        key,
+        dir,
+        frames,
+        fps,
+        r,
+    })
+}
+
+/// The dam break's frame rate and frame count (1.46 s).
+const DAM_BREAK_FPS: f32 = 24.0;
+const DAM_BREAK_FRAMES: usize = 36;
+
+/// Every `every`-th frame of `shot` from its first, as a shot of its own (hard links, or
+/// copies where the file system has none, in `dir`): the same simulation at a lower rate.
+fn thinned(shot: &Shot, every: usize, dir: &Path) -> anyhow::Result<Shot> {
+    std::fs::create_dir_all(dir)?;
+    let frames = (shot.frames - 1) / every + 1;
+    for k in 1..=frames {
+        let from = shot.dir.join(format!("{STEM}{}.ply", (k - 1) * every + 1));
+        let to = dir.join(format!("{STEM}{k}.ply"));
+        let _ = std::fs::remove_file(&to);
+        if std::fs::hard_link(&from, &to).is_err() {
+            std::fs::copy(&from, &to)?;
+        }
+    }
+    Ok(Shot {
+        name: format!("{}, every {every} frames", shot.name),
+        key: format!("{}_thinned", shot.key),
+        dir: dir.to_path_buf(),
+        frames,
+        fps: shot.fps / every as f32,
+        r: shot.r,
+    })
 }
 
 /// One tool's meshes of the shot, frame by frame, and what they are measured as.
@@ -207,38 +255,134 @@ fn mean(values: &[f64]) -> f64 {
 
 /// The races in motion: the SPlisHSPlasH dam break (when it can be had), then the
 /// twisting ellipsoid.
+/// With `frame_rates`, each again at twice the rate ([`rates`]).
 pub fn race(
     root: &Path,
     splashsurf: Option<&Path>,
     extra: &str,
+    frame_rates: bool,
     lines: &mut Vec<String>,
     report: &mut serde_json::Map<String, serde_json::Value>,
 ) -> anyhow::Result<()> {
-    match cache() {
-        Ok((dir, frames, r)) => {
-            let shot = Shot {
-                name: "SPH dam break",
-                key: "particles_sph",
-                dir,
-                frames,
-                r,
-            };
+    match cache(DAM_BREAK_FPS, DAM_BREAK_FRAMES) {
+        Ok(shot) => {
             race_on(&shot, root, splashsurf, extra, lines, report)?;
         }
         Err(why) => lines.push(format!("particles, SPH dam break: skipped: {why}")),
     }
-    let shot = twist(&root.join("twist_in"))?;
-    race_on(&shot, root, splashsurf, extra, lines, report)?;
+    let shot = twist(&root.join("twist_in"), 24.0)?;
+    let slow = race_on(&shot, root, splashsurf, extra, lines, report)?;
     std::fs::remove_dir_all(&shot.dir)?;
+    if !frame_rates {
+        return Ok(());
+    }
+    let shot = twist(&root.join("twist_in"), 48.0)?;
+    let fast = race_on(&shot, root, splashsurf, extra, lines, report)?;
+    std::fs::remove_dir_all(&shot.dir)?;
+    rates(
+        "smooth twist",
+        "particles_twist",
+        [&slow, &fast],
+        lines,
+        report,
+    );
+    // The 24 fps cache's simulation lands its steps on other times (its chaos, a
+    // splash's details, differs): the slower shot is the faster one's every other frame.
+    match cache(2.0 * DAM_BREAK_FPS, 2 * DAM_BREAK_FRAMES - 1) {
+        Ok(shot) => {
+            let fast = race_on(&shot, root, splashsurf, extra, lines, report)?;
+            let every_other = thinned(&shot, 2, &root.join("thinned_in"))?;
+            let slow = race_on(&every_other, root, splashsurf, extra, lines, report)?;
+            std::fs::remove_dir_all(&every_other.dir)?;
+            rates(
+                "SPH dam break",
+                "particles_sph",
+                [&slow, &fast],
+                lines,
+                report,
+            );
+        }
+        Err(why) => lines.push(format!(
+            "particles, SPH dam break at 48 fps: skipped: {why}"
+        )),
+    }
     Ok(())
 }
 
+/// One tool's mean flicker and particle-offset noise over a shot (voxels).
+#[derive(Clone, Copy)]
+struct Means {
+    flicker: f64,
+    noise: f64,
+}
+
+impl Means {
+    fn of(m: &Measured) -> Self {
+        Means {
+            flicker: mean(&m.flicker),
+            noise: mean(&m.noise),
+        }
+    }
+}
+
+/// Each tool's means on a shot: ours, splashsurf's when it ran.
+struct Raced {
+    ours: Means,
+    theirs: Option<Means>,
+}
+
+/// The measures of one motion at a frame rate and at twice it (`[slow, fast]`). A
+/// surface's own flicker — what differs from frame to frame however close the frames —
+/// is the same at both rates; what the motion adds to the measures (a liquid's surface
+/// is not material where it rolls over a front or tears, and the measures follow the
+/// particles) shrinks with the frame interval, by half or more. The ratio fast/slow says
+/// which of the two a tool's figure is.
+fn rates(
+    name: &str,
+    key: &str,
+    [slow, fast]: [&Raced; 2],
+    lines: &mut Vec<String>,
+    report: &mut serde_json::Map<String, serde_json::Value>,
+) {
+    let pair = |a: Means, b: Means| {
+        json!({"flicker_voxels": [a.flicker, b.flicker], "flicker_ratio": b.flicker / a.flicker,
+               "noise_voxels": [a.noise, b.noise], "noise_ratio": b.noise / a.noise})
+    };
+    let says = |who: &str, a: Means, b: Means| {
+        format!(
+            "{who} flicker {:.3} → {:.3} (×{:.2}), noise {:.3} → {:.3} (×{:.2})",
+            a.flicker,
+            b.flicker,
+            b.flicker / a.flicker,
+            a.noise,
+            b.noise,
+            b.noise / a.noise
+        )
+    };
+    let theirs = slow.theirs.zip(fast.theirs);
+    lines.push(format!(
+        "particles, {name} at twice the frame rate (the same motion, voxels)   {}{}",
+        says("ours", slow.ours, fast.ours),
+        theirs.map_or(String::new(), |(a, b)| format!(
+            "   {}",
+            says("splashsurf", a, b)
+        ))
+    ));
+    report.insert(
+        format!("{key}_frame_rates"),
+        json!({"ours": pair(slow.ours, fast.ours),
+               "splashsurf": theirs.map(|(a, b)| pair(a, b))}),
+    );
+}
+
 /// An ellipsoid of particles (semi-axes 0.2, 0.14, 0.1 m; a jittered lattice of spacing
-/// 2r, r = 0.005) gliding 8 voxels a frame while twisting about its vertical axis (each
-/// height turning at its own rate, 1 + 15 z rad/s: a smooth motion, not a rigid one), 24
-/// frames at 24 fps with exact velocities and ids, written into `dir`.
-fn twist(dir: &Path) -> anyhow::Result<Shot> {
-    let (r, frames, fps) = (0.005f32, 24usize, 24.0f32);
+/// 2r, r = 0.005) gliding 8 voxels a 24th of a second while twisting about its vertical
+/// axis (each height turning at its own rate, 1 + 15 z rad/s: a smooth motion, not a
+/// rigid one), 23/24 s at `fps` (24 frames at 24 fps) with exact velocities and ids,
+/// written into `dir`.
+fn twist(dir: &Path, fps: f32) -> anyhow::Result<Shot> {
+    let r = 0.005f32;
+    let frames = (23.0 * fps / 24.0).round() as usize + 1;
     std::fs::create_dir_all(dir)?;
     let axes = Vec3::new(0.2, 0.14, 0.1);
     let n = (axes.x / (2.0 * r)).round() as i32;
@@ -266,7 +410,7 @@ fn twist(dir: &Path) -> anyhow::Result<Shot> {
             }
         }
     }
-    let glide = Vec3::new(1.0, 0.4, 0.2).normalize() * 8.0 * r * fps;
+    let glide = Vec3::new(1.0, 0.4, 0.2).normalize() * 8.0 * r * 24.0;
     for f in 1..=frames {
         let t = (f - 1) as f32 / fps;
         let (positions, velocities): (Vec<Vec3>, Vec<Vec3>) = start
@@ -287,11 +431,19 @@ fn twist(dir: &Path) -> anyhow::Result<Shot> {
         };
         activeskin::io::ply::write_particles(&dir.join(format!("{STEM}{f}.ply")), &frame)?;
     }
+    let (name, key) = match fps == 24.0 {
+        true => ("smooth twist".to_string(), "particles_twist".to_string()),
+        false => (
+            format!("smooth twist at {fps} fps"),
+            format!("particles_twist_{fps}fps"),
+        ),
+    };
     Ok(Shot {
-        name: "smooth twist",
-        key: "particles_twist",
+        name,
+        key,
         dir: dir.to_path_buf(),
         frames,
+        fps,
         r,
     })
 }
@@ -304,7 +456,7 @@ fn race_on(
     extra: &str,
     lines: &mut Vec<String>,
     report: &mut serde_json::Map<String, serde_json::Value>,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<Raced> {
     let (cache, frames, r) = (&shot.dir, shot.frames, shot.r);
     let dir = root.join("sph");
     std::fs::create_dir_all(&dir)?;
@@ -319,6 +471,7 @@ fn race_on(
             .arg("--particles")
             .arg(&input)
             .args(["--radius", &radius, "--voxel-size", &radius, "-q"])
+            .args(["--fps", &shot.fps.to_string()])
             .arg("--mesh")
             .arg(dir.join("ours_####.obj"))
             .arg("--frames")
@@ -449,8 +602,8 @@ fn race_on(
                "flicker_mean_voxels": mean(&m.flicker)})
     };
     report.insert(
-        shot.key.into(),
-        json!({"particles": clouds[0].len(), "frames": frames, "radius": r, "ours_args": extra,
+        shot.key.clone(),
+        json!({"particles": clouds[0].len(), "frames": frames, "fps": shot.fps, "radius": r, "ours_args": extra,
                "ours": side(&ours, ours_s), "ours_lag_voxels": lag, "ours_substeps": substeps,
                "ours_frame_ms": frame_ms,
                "splashsurf": theirs.as_ref().zip(theirs_s).map(|(t, s)| side(t, s)),
@@ -459,7 +612,10 @@ fn race_on(
                "flicker_ratio": theirs.as_ref().map(|t| mean(&ours.flicker) / mean(&t.flicker))}),
     );
     std::fs::remove_dir_all(&dir)?;
-    Ok(())
+    Ok(Raced {
+        ours: Means::of(&ours),
+        theirs: theirs.as_ref().map(Means::of),
+    })
 }
 
 #[cfg(test)]
@@ -507,7 +663,7 @@ mod tests {
     #[test]
     fn the_twist_moves_its_particles_as_their_velocities_say() {
         let dir = tempfile::tempdir().unwrap();
-        let shot = twist(dir.path()).unwrap();
+        let shot = twist(dir.path(), 24.0).unwrap();
         let read = |f: usize| particles::read(&shot.dir.join(format!("{STEM}{f}.ply"))).unwrap();
         let (a, b) = (read(12), read(13));
         assert!(a.positions.len() > 10_000);
@@ -524,6 +680,33 @@ mod tests {
         assert!(worst < 0.01, "{worst} voxel");
         let mean_speed = va.iter().map(|v| v.length()).sum::<f32>() / va.len() as f32;
         assert!(mean_speed * dt / shot.r > 7.0, "{mean_speed}");
+    }
+
+    /// Twice the rate is the same motion: the twist at 48 fps, every other frame, is the
+    /// twist at 24 fps, byte for byte.
+    #[test]
+    fn every_other_frame_at_twice_the_rate_is_the_same_shot() {
+        let dir = tempfile::tempdir().unwrap();
+        let slow = twist(&dir.path().join("24"), 24.0).unwrap();
+        let fast = twist(&dir.path().join("48"), 48.0).unwrap();
+        assert_eq!((slow.frames, fast.frames), (24, 47));
+        let thin = thinned(&fast, 2, &dir.path().join("thin")).unwrap();
+        assert_eq!((thin.frames, thin.fps), (24, 24.0));
+        for f in 1..=24 {
+            let name = format!("{STEM}{f}.ply");
+            let a = std::fs::read(slow.dir.join(&name)).unwrap();
+            assert_eq!(a, std::fs::read(thin.dir.join(&name)).unwrap(), "frame {f}");
+        }
+        // Frame 2 at 48 fps is half way to frame 2 at 24 fps.
+        let read = |s: &Shot, f: usize| {
+            particles::read(&s.dir.join(format!("{STEM}{f}.ply")))
+                .unwrap()
+                .positions
+        };
+        let (a, half, b) = (read(&slow, 1), read(&fast, 2), read(&slow, 2));
+        let step = |x: &[Vec3], y: &[Vec3]| (x[0] - y[0]).length();
+        let ratio = step(&half, &a) / step(&b, &a);
+        assert!((ratio - 0.5).abs() < 0.01, "{ratio}");
     }
 
     #[test]
