@@ -720,15 +720,33 @@ impl Target for EnrightShape {
     }
 }
 
-/// A distance to the zero set of `0` to first order, φ/|∇φ| (central differences).
-struct FirstOrder<T>(T);
+/// The distance to the zero set of `0` along its normal line: φ/|∇φ| (central
+/// differences) is the first-order step, refined by bisection on [0, 2·step] where φ
+/// changes sign there (else the step itself). Where φ is no distance — Enright's sheet,
+/// compressed across — the first-order step alone put the skin 0.210 voxel from the
+/// surface and meshing the cache 0.177; along the line, 0.170 and 0.142.
+struct AlongNormal<T>(T);
 
-impl<T: Target> Target for FirstOrder<T> {
+impl<T: Target> Target for AlongNormal<T> {
     fn distance(&self, p: Vec3) -> f32 {
         let e = 1e-3;
         let d = |v: Vec3| self.0.distance(p + v * e) - self.0.distance(p - v * e);
         let gradient = Vec3::new(d(Vec3::X), d(Vec3::Y), d(Vec3::Z)) / (2.0 * e);
-        self.0.distance(p) / gradient.length().max(1e-6)
+        let here = self.0.distance(p);
+        let step = here / gradient.length().max(1e-6);
+        let n = gradient.normalize_or_zero();
+        let (mut a, mut b) = (0.0f32, 2.0 * step);
+        if here == 0.0 || self.0.distance(p - n * b).signum() == here.signum() {
+            return step;
+        }
+        for _ in 0..14 {
+            let m = 0.5 * (a + b);
+            match self.0.distance(p - n * m).signum() == here.signum() {
+                true => a = m,
+                false => b = m,
+            }
+        }
+        0.5 * (a + b)
     }
     fn bounds(&self) -> Aabb {
         self.0.bounds()
@@ -737,8 +755,9 @@ impl<T: Target> Target for FirstOrder<T> {
 
 /// Enright's sheet thins under two voxels at Δx = 1/64: what the advection erodes there
 /// comes back from the attraction at about 1/α, so a tight α follows it (measured over
-/// the return, frames 36–71: α 4 0.53 voxel mean, median 0.24; α 16 0.26 / 0.061; α 48
-/// 0.22 / 0.044; meshing the cache itself 0.18, all of it in the sheet).
+/// the return, frames 36–71, against the first-order truth: α 4 0.53 voxel mean, median
+/// 0.24; α 16 0.26 / 0.061; α 48 0.22 / 0.044; meshing the cache itself 0.18, all of it
+/// in the sheet; along the normal line, α 48: 0.170 / 0.042, meshing 0.142).
 #[test]
 fn enrights_deformation_is_followed_as_closely_as_meshing_it() {
     let (period, dx, frames) = (3.0, 1.0 / 64.0, 72);
@@ -747,7 +766,7 @@ fn enrights_deformation_is_followed_as_closely_as_meshing_it() {
         frames,
         cache_params(dx, 48.0),
         &|f| Box::new(EnrightShape::at(time(f), period)),
-        &|f| Box::new(FirstOrder(EnrightShape::at(time(f), period))),
+        &|f| Box::new(AlongNormal(EnrightShape::at(time(f), period))),
         &|f| {
             Box::new(Enright {
                 period,
