@@ -636,13 +636,10 @@ fn clean_moving_caches_are_followed_within_a_twentieth_of_a_voxel() {
             "clean cache, {name}: {:.3} voxel from the truth (worst frame {:.3}, median {:.3}), per-frame meshing {:.3}; vertices moved by their velocity land {:.3} voxel from the next frame",
             run.mean, run.worst_frame, run.median, run.per_frame_meshing, run.landing
         );
-        // Zalesak's sharp edges are rounded (a membrane, and the advection's
-        // interpolation): 2 % of the vertices, 0.4–0.6 voxel off, give half its mean.
-        if name.starts_with("Zalesak") {
-            assert!(run.median <= 0.05 && run.mean <= 0.08, "{name}: {run:?}");
-        } else {
-            assert!(run.mean <= 0.05, "{name}: {run:?}");
-        }
+        // Measured 0.031, 0.032 and 0.035 (median 0.018): with the default tension, whose
+        // rest offset Δx²/4R is 1/32 voxel on these spheres, and rounds Zalesak's edges;
+        // without it, 0.005, 0.004 and 0.021.
+        assert!(run.mean <= 0.05, "{name}: {run:?}");
         // Motion blur's velocities (measured 0.013–0.015).
         assert!(run.landing <= 0.1, "{name}: {run:?}");
     }
@@ -722,9 +719,11 @@ impl Target for EnrightShape {
 
 /// The distance to the zero set of `0` along its normal line: φ/|∇φ| (central
 /// differences) is the first-order step, refined by bisection on [0, 2·step] where φ
-/// changes sign there (else the step itself). Where φ is no distance — Enright's sheet,
-/// compressed across — the first-order step alone put the skin 0.210 voxel from the
-/// surface and meshing the cache 0.177; along the line, 0.170 and 0.142.
+/// changes sign there (else the step itself). Enright's sphere's own value is no
+/// distance (compressed across the sheet): as the truth, its first-order step put the
+/// skin 0.209 voxel from the surface where this puts it 0.170; as the cache, meshing it
+/// is 0.15 voxel from its own zero set on the most stretched frames (36–42), meshing
+/// this 0.07–0.09.
 struct AlongNormal<T>(T);
 
 impl<T: Target> Target for AlongNormal<T> {
@@ -753,19 +752,28 @@ impl<T: Target> Target for AlongNormal<T> {
     }
 }
 
-/// Enright's sheet thins under two voxels at Δx = 1/64: what the advection erodes there
-/// comes back from the attraction at about 1/α, so a tight α follows it (measured over
-/// the return, frames 36–71, against the first-order truth: α 4 0.53 voxel mean, median
-/// 0.24; α 16 0.26 / 0.061; α 48 0.22 / 0.044; meshing the cache itself 0.18, all of it
-/// in the sheet; along the normal line, α 48: 0.170 / 0.042, meshing 0.142).
+/// Enright's sphere stretched into a sheet under two voxels thick at Δx = 1/64 and back,
+/// cached as a simulation writes a level set (a distance; its own value, compressed
+/// across the sheet, is no distance, and meshing it is 5× further from its zero set).
+/// A clean cache wants no smoothing: the attraction alone (α 48, β 0) follows it within
+/// a twentieth of a voxel over the return, frames 36–71 (measured: 0.043 mean, median
+/// 0.013; meshing each frame 0.029). The default tension's rest offset, Δx²/4r, is a
+/// quarter voxel at the sheet's rim (r ≈ 1 voxel): with it 0.068, median 0.032.
 #[test]
-fn enrights_deformation_is_followed_as_closely_as_meshing_it() {
+fn enrights_deformation_is_followed_within_a_twentieth_of_a_voxel() {
     let (period, dx, frames) = (3.0, 1.0 / 64.0, 72);
     let time = |f: usize| f as f32 / FPS;
+    let untensed = SkinParams {
+        speed: SpeedParams {
+            beta: 0.0,
+            ..cache_params(dx, 48.0).speed
+        },
+        ..cache_params(dx, 48.0)
+    };
     let run = track(
         frames,
-        cache_params(dx, 48.0),
-        &|f| Box::new(EnrightShape::at(time(f), period)),
+        untensed,
+        &|f| Box::new(AlongNormal(EnrightShape::at(time(f), period))),
         &|f| Box::new(AlongNormal(EnrightShape::at(time(f), period))),
         &|f| {
             Box::new(Enright {
@@ -775,13 +783,10 @@ fn enrights_deformation_is_followed_as_closely_as_meshing_it() {
         },
     );
     println!(
-        "Enright's deformation, clean cache, α 48: {:.3} voxel from the truth (worst frame {:.3}, median {:.3}), per-frame meshing {:.3}",
+        "Enright's deformation, clean cache, α 48, β 0: {:.3} voxel from the truth (worst frame {:.3}, median {:.3}), per-frame meshing {:.3}",
         run.mean, run.worst_frame, run.median, run.per_frame_meshing
     );
-    assert!(
-        run.median <= 0.05 && run.mean <= 1.5 * run.per_frame_meshing,
-        "{run:?}"
-    );
+    assert!(run.mean <= 0.05 && run.median <= 0.025, "{run:?}");
 }
 
 #[test]
