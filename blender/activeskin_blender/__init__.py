@@ -114,6 +114,11 @@ class ActiveSkinSettings(bpy.types.PropertyGroup):
         name="Attraction α", default=4.0, min=0.0,
         description="How fast the skin closes on the particles (1/s): lower is smoother",
     )
+    use_tension: bpy.props.BoolProperty(
+        name="Surface tension", default=True,
+        description="Smooth the surface (particles, noisy caches); off for a clean "
+        "level-set cache, which then is followed without tension's inward offset",
+    )
     beta: bpy.props.FloatProperty(
         name="Tension β", default=0.0, min=0.0, precision=6,
         description="Surface tension (units²/s); 0 for the default, α·voxel²/8",
@@ -136,6 +141,13 @@ class ActiveSkinSettings(bpy.types.PropertyGroup):
         name="VDB level sets", default=False,
         description="Also write the skin as a VDB level set a frame (needs activeskin built with OpenVDB)",
     )
+
+
+def tension(settings):
+    """β for the library: None for its default, 0 with tension off."""
+    if not settings.use_tension:
+        return 0.0
+    return settings.beta or None
 
 
 def _particles_of(settings, scene, depsgraph):
@@ -280,7 +292,7 @@ class Bake:
                 velocity="velocity" if s.use_velocity else False,
                 voxel_size=s.voxel_size or None,
                 alpha=s.alpha,
-                beta=s.beta or None,
+                beta=tension(s),
                 fps=fps,
                 velocity_grid=s.write_vdb,
             )
@@ -289,7 +301,7 @@ class Bake:
                 s.radius,
                 voxel_size=s.voxel_size or None,
                 alpha=s.alpha,
-                beta=s.beta or None,
+                beta=tension(s),
                 fps=fps,
                 first_frame=self.first,
                 velocity_grid=s.write_vdb,
@@ -526,7 +538,9 @@ class ACTIVESKIN_PT_panel(bpy.types.Panel):
             layout.prop(s, "radius")
         layout.prop(s, "voxel_size")
         layout.prop(s, "alpha")
-        layout.prop(s, "beta")
+        layout.prop(s, "use_tension")
+        if s.use_tension:
+            layout.prop(s, "beta")
         layout.prop(s, "use_velocity")
         row = layout.row(align=True)
         row.prop(s, "frame_start")

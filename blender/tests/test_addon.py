@@ -365,4 +365,21 @@ else:
     print(f"Mantaflow frame 8: the skin's bounds within {off:.2f} cells of Blender's liquid mesh")
     assert off < 1.5, (lo_b, hi_b, lo_s, hi_s)
 
+    # Tension off (a clean cache): the command's `--beta 0`, not its default.
+    s.use_tension = False
+    s.write_vdb = False
+    s.cache_dir = os.path.join(cache, "manta_untensed")
+    assert bpy.ops.activeskin.bake() == {"FINISHED"}
+    theirs = os.path.join(cache, "cli_manta_untensed")
+    subprocess.run(
+        [binary, "skin", "--target", pattern, "--mesh", os.path.join(theirs, "m.####.obj"),
+         "--beta", "0", "-q"],
+        check=True,
+    )
+    cli = os.path.join(theirs, "m.{frame:04d}.obj")
+    check_against_the_command("a Mantaflow domain without tension", frames=(3, 8))
+    tensed = obj_vertices(os.path.join(cache, "cli_manta", "m.0008.obj"))
+    assert tensed != obj_vertices(cli.format(frame=8)), "--beta 0 made the default's surface"
+    s.use_tension = True
+
 print("ADDON OK")
