@@ -335,7 +335,13 @@ pub fn run<'t>(
             .as_ref()
             .filter(|_| frame != first)
             .and_then(|i| i.volume);
-        let level_set = skin.settle_holding(hold);
+        // The smoothing stays near the frame's target (not on the first frame, whose
+        // input is read only for some outputs: the skin starts on it anyway).
+        let near = input
+            .as_ref()
+            .filter(|_| frame != first)
+            .map(|i| &*i.target as &dyn Target);
+        let level_set = skin.settle_holding(hold, near);
         if frame >= write_from {
             let stats = crate::skin::StepStats {
                 substeps,

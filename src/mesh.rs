@@ -127,32 +127,41 @@ impl Mesh {
 
     /// Connected components (through shared vertices).
     pub fn components(&self) -> usize {
-        let mut parent: Vec<u32> = (0..self.positions.len() as u32).collect();
-        fn root(parent: &mut [u32], mut i: u32) -> u32 {
-            while parent[i as usize] != i {
-                let p = parent[parent[i as usize] as usize];
-                parent[i as usize] = p;
-                i = p;
-            }
-            i
-        }
-        for t in &self.triangles {
-            let a = root(&mut parent, t[0]);
-            for &v in &t[1..] {
-                let b = root(&mut parent, v);
-                parent[b as usize] = a;
-            }
-        }
+        let labels = piece_labels(self);
         let mut used = vec![false; self.positions.len()];
         for t in &self.triangles {
             for &v in t {
                 used[v as usize] = true;
             }
         }
-        (0..self.positions.len() as u32)
-            .filter(|&i| used[i as usize] && root(&mut parent, i) == i)
+        (0..self.positions.len())
+            .filter(|&i| used[i] && labels[i] == i as u32)
             .count()
     }
+}
+
+/// Each vertex's piece: the index of one vertex of its connected component (through
+/// shared vertices), the same for every vertex of the piece.
+pub fn piece_labels(mesh: &Mesh) -> Vec<u32> {
+    let mut parent: Vec<u32> = (0..mesh.positions.len() as u32).collect();
+    fn root(parent: &mut [u32], mut i: u32) -> u32 {
+        while parent[i as usize] != i {
+            let p = parent[parent[i as usize] as usize];
+            parent[i as usize] = p;
+            i = p;
+        }
+        i
+    }
+    for t in &mesh.triangles {
+        let a = root(&mut parent, t[0]);
+        for &v in &t[1..] {
+            let b = root(&mut parent, v);
+            parent[b as usize] = a;
+        }
+    }
+    (0..parent.len() as u32)
+        .map(|i| root(&mut parent, i))
+        .collect()
 }
 
 #[cfg(test)]

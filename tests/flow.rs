@@ -764,13 +764,8 @@ impl<T: Target> Target for AlongNormal<T> {
 fn enrights_deformation_is_followed_within_a_twentieth_of_a_voxel() {
     let (period, dx, frames) = (3.0, 1.0 / 64.0, 72);
     let time = |f: usize| f as f32 / FPS;
-    let untensed = SkinParams {
-        speed: SpeedParams {
-            beta: 0.0,
-            ..cache_params(dx, 48.0).speed
-        },
-        ..cache_params(dx, 48.0)
-    };
+    let mut untensed = cache_params(dx, 48.0);
+    untensed.speed.beta = 0.0;
     let run = track(
         frames,
         untensed,

@@ -123,6 +123,11 @@ class ActiveSkinSettings(bpy.types.PropertyGroup):
         name="Tension β", default=0.0, min=0.0, precision=6,
         description="Surface tension (units²/s); 0 for the default, α·voxel²/8",
     )
+    smooth: bpy.props.FloatProperty(
+        name="Smoothing", default=1.0, min=0.0, soft_max=4.0,
+        description="Smoothing of the particles' bumps, adding up from frame to frame "
+        "(particles only): 0 none, 2 twice as much; droplets and thin sheets are spared",
+    )
     use_velocity: bpy.props.BoolProperty(
         name="Follow the motion", default=True,
         description="Carry the skin by the particles' own motion (their ids and velocities)",
@@ -143,7 +148,7 @@ class ActiveSkinSettings(bpy.types.PropertyGroup):
     )
 
 
-def tension(settings):
+def _tension(settings):
     """β for the library: None for its default, 0 with tension off."""
     if not settings.use_tension:
         return 0.0
@@ -292,7 +297,7 @@ class Bake:
                 velocity="velocity" if s.use_velocity else False,
                 voxel_size=s.voxel_size or None,
                 alpha=s.alpha,
-                beta=tension(s),
+                beta=_tension(s),
                 fps=fps,
                 velocity_grid=s.write_vdb,
             )
@@ -301,7 +306,8 @@ class Bake:
                 s.radius,
                 voxel_size=s.voxel_size or None,
                 alpha=s.alpha,
-                beta=tension(s),
+                beta=_tension(s),
+                smooth=s.smooth,
                 fps=fps,
                 first_frame=self.first,
                 velocity_grid=s.write_vdb,
@@ -536,6 +542,7 @@ class ACTIVESKIN_PT_panel(bpy.types.Panel):
             layout.prop(s, "pattern")
         if s.source != "MANTAFLOW":
             layout.prop(s, "radius")
+            layout.prop(s, "smooth")
         layout.prop(s, "voxel_size")
         layout.prop(s, "alpha")
         layout.prop(s, "use_tension")

@@ -51,6 +51,7 @@ class ParticleSkin:
         voxel_size: float | None = None,
         alpha: float = 4.0,
         beta: float | None = None,
+        smooth: float | None = None,
         smoothing_length: float = 2.0,
         iso: float | None = None,
         fps: float = 24.0,
@@ -64,7 +65,9 @@ class ParticleSkin:
     ) -> None:
         """radius: half the particles' rest spacing; voxel_size defaults to radius/2;
         alpha (1/s) the attraction; beta (world units²/s) the surface tension, by default
-        alpha·voxel²/8; attributes: names to carry onto the surface, or ["all"];
+        alpha·voxel²/8; smooth: smoothing at the particle scale, 1 by default (0 none,
+        2 twice as much), as the command's --smooth; attributes: names to carry onto
+        the surface, or ["all"];
         volume_reference: (frame, positions, radii or None) of the sequence's first
         frame when the skin starts later (the volume those particles stand for is held,
         as the command holds it); velocity_grid: the surface's velocity at the skin's
@@ -110,6 +113,7 @@ class LevelSetSkin:
         voxel_size: float | None = None,
         alpha: float = 4.0,
         beta: float | None = None,
+        smooth: float | None = None,
         volume_gain: float = 0.0,
         area_gain: float = 0.0,
         fps: float = 24.0,
@@ -127,7 +131,8 @@ class LevelSetSkin:
         velocity_grid: bool = False,
     ) -> None:
         """voxel_size: the skin's, by default the first target's; alpha (1/s) the
-        attraction; beta the surface tension (default alpha·voxel²/8); velocity_time
+        attraction; beta the surface tension (default alpha·voxel²/8); smooth: smoothing
+        as each frame settles (none by default), as the command's --smooth; velocity_time
         "start" (FLIP, Mantaflow) or "mid" (SPH): which frames' velocities carry an
         interval; iso: read targets as fog volumes at this density; units: what level
         sets' distances are in ("auto" measures |∇φ|, "world", "voxel"); seed: grow the
@@ -181,6 +186,7 @@ def particles_sequence(
     voxel_size: float | None = None,
     alpha: float = 4.0,
     beta: float | None = None,
+    smooth: float | None = None,
     smoothing_length: float = 2.0,
     iso: float | None = None,
     fps: float = 24.0,

@@ -404,13 +404,14 @@ struct ParticleSkin {
 #[pymethods]
 impl ParticleSkin {
     #[new]
-    #[pyo3(signature = (radius, *, voxel_size=None, alpha=4.0, beta=None, smoothing_length=2.0, iso=None, fps=24.0, velocities=true, hold_volume=true, attributes=None, first_frame=1, ignore_radii=false, volume_reference=None, velocity_grid=false))]
+    #[pyo3(signature = (radius, *, voxel_size=None, alpha=4.0, beta=None, smooth=None, smoothing_length=2.0, iso=None, fps=24.0, velocities=true, hold_volume=true, attributes=None, first_frame=1, ignore_radii=false, volume_reference=None, velocity_grid=false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         radius: f32,
         voxel_size: Option<f32>,
         alpha: f32,
         beta: Option<f32>,
+        smooth: Option<f32>,
         smoothing_length: f32,
         iso: Option<f32>,
         fps: f64,
@@ -451,10 +452,11 @@ impl ParticleSkin {
         let physics = Physics {
             alpha,
             beta,
+            smoothing: smooth,
             ..Physics::default()
         };
         let spec = StreamSpec {
-            params: physics.params(dx),
+            params: physics.particle_params(radius, dx),
             particles,
             fps,
             hold_volume,
@@ -761,13 +763,14 @@ struct LevelSetSkin {
 #[pymethods]
 impl LevelSetSkin {
     #[new]
-    #[pyo3(signature = (*, voxel_size=None, alpha=4.0, beta=None, volume_gain=0.0, area_gain=0.0, fps=24.0, velocities=true, velocity_time="start", velocity_scale=1.0, iso=None, units="auto", first_frame=1, seed=true, init=None, spacing=None, origin=(0.0, 0.0, 0.0), grid=None, velocity_grid=false))]
+    #[pyo3(signature = (*, voxel_size=None, alpha=4.0, beta=None, smooth=None, volume_gain=0.0, area_gain=0.0, fps=24.0, velocities=true, velocity_time="start", velocity_scale=1.0, iso=None, units="auto", first_frame=1, seed=true, init=None, spacing=None, origin=(0.0, 0.0, 0.0), grid=None, velocity_grid=false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         voxel_size: Option<f32>,
         alpha: f32,
         beta: Option<f32>,
+        smooth: Option<f32>,
         volume_gain: f32,
         area_gain: f32,
         fps: f64,
@@ -808,6 +811,7 @@ impl LevelSetSkin {
                 beta,
                 volume_gain,
                 area_gain,
+                smoothing: smooth,
                 ..Physics::default()
             },
             fps,

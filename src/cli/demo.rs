@@ -59,6 +59,7 @@ fn physics(alpha: f32, beta: f32) -> PhysicsArgs {
         area_gain: 0.0,
         voxel_size: None,
         precision: PrecisionArg::F32,
+        smooth: None,
         warmup: None,
     }
 }
@@ -175,7 +176,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     let iso = iso_for_radius(radius, h);
     let liquid = physics(48.0, 0.0003);
     let density = |frame: i64| Density::new(clouds[frame as usize - 1].clone(), h, iso);
-    let skin = AnySkin::new(&density(1), liquid.params(0.5 * radius)?);
+    let skin = AnySkin::new(&density(1), liquid.particle_params(radius, 0.5 * radius)?);
     std::fs::create_dir_all(args.out.join("splash"))?;
     for (frame, cloud) in (1..).zip(&clouds) {
         let path = args.out.join(format!("splash/particles.{frame:04}.ply"));

@@ -125,7 +125,9 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     };
     let mut input = input_frames("--particles", &args.particles, args.frames.as_deref())?;
     let write_from = input.warm_up(args.physics.warmup_frames()?);
-    let params = args.physics.params(particles.dx)?;
+    let params = args
+        .physics
+        .particle_params(particles.radius, particles.dx)?;
     if let Some(spec) = &args.density_out {
         let out = pattern_arg(spec)?;
         let folder = out.folder();

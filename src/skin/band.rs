@@ -151,7 +151,7 @@ fn sweep_nodes<P: Potential>(
 
 /// Runs `visit(halo, block, out)` on every block with its halo gathered, `out` its slot of
 /// `scratch` (resized to the blocks).
-fn each_halo<P: Potential>(
+pub(super) fn each_halo<P: Potential>(
     grid: &SparseGrid<P>,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
     visit: impl Fn(&Halo, &Block<P>, &mut [f32; BLOCK_NODES]) + Sync,
@@ -168,7 +168,11 @@ fn each_halo<P: Potential>(
 
 /// Stores a sweep's values: the active nodes' (the others keep theirs), or every node's
 /// when `all`.
-fn write_back<P: Potential>(grid: &mut SparseGrid<P>, scratch: &[[f32; BLOCK_NODES]], all: bool) {
+pub(super) fn write_back<P: Potential>(
+    grid: &mut SparseGrid<P>,
+    scratch: &[[f32; BLOCK_NODES]],
+    all: bool,
+) {
     let blocks = grid.blocks_mut().par_iter_mut().zip(scratch.par_iter());
     blocks.for_each(|(block, values)| {
         if all {

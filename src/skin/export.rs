@@ -6,6 +6,7 @@ use glam::IVec3;
 use super::{band, Skin, SkinError};
 use crate::grid::{Potential, BLOCK_DIM, BLOCK_NODES};
 use crate::polygonize::distance_in_cells_around;
+use crate::target::Target;
 use crate::volume::{GridClass, GridData, Tile, Transform, MASK_WORDS};
 
 impl<P: Potential> Skin<P> {
@@ -84,14 +85,25 @@ impl<P: Potential> Skin<P> {
     /// ([`Skin::to_level_set`], then [`Skin::restore`]), which is returned for writing.
     /// Every frame ends so, written or not, so the skin never depends on its outputs.
     pub fn settle(&mut self) -> GridData {
-        self.settle_holding(None)
+        self.settle_holding(None, None)
     }
 
-    /// [`Skin::settle`], the skin first held to `volume` (world units³) by the uniform
-    /// normal offset that gives it back (§5.2's constraint met at once), meshed once, by
-    /// the restore: for inputs that conserve their volume, such as an incompressible
-    /// liquid's particles, whose density's iso-surface does not.
-    pub fn settle_holding(&mut self, volume: Option<f64>) -> GridData {
+    /// [`Skin::settle`], the skin first smoothed ([`SkinParams::smoothing`], staying near
+    /// the frame's target `near` when given) and held to `volume` (world units³; the
+    /// volume before the smoothing when not given) by the uniform normal offset that
+    /// gives it back (§5.2's constraint met at once), meshed once, by the restore: for
+    /// inputs that conserve their volume, such as an incompressible liquid's particles,
+    /// whose density's iso-surface does not.
+    pub fn settle_holding(&mut self, volume: Option<f64>, near: Option<&dyn Target>) -> GridData {
+        let smoothing = self.params.smoothing;
+        let volume = match smoothing > 0.0 {
+            true => {
+                let unsmoothed = self.volume;
+                self.smooth(smoothing, near);
+                volume.or(Some(unsmoothed))
+            }
+            false => volume,
+        };
         if let Some(volume) = volume {
             self.shift_to_volume(volume);
         }

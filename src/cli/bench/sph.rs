@@ -20,6 +20,7 @@ use std::process::Command;
 use activeskin::flow::Flow;
 use activeskin::frames::ParticleInput;
 use activeskin::io::particles;
+use activeskin::measure::look;
 use activeskin::mesh::Mesh;
 use activeskin::target::{fluid_iso, Density, LevelSetTarget, Target, DEFAULT_SMOOTHING_LENGTH};
 use activeskin::vdb::Grid;
@@ -133,6 +134,11 @@ struct Measured {
     outside: Vec<f64>,
     noise: Vec<f64>,
     flicker: Vec<f64>,
+    /// Per frame: particle-scale bumps (degrees, [`look::bumps`]), connected pieces, and
+    /// the median thickness of single-layer sheets in particle radii (NaN without any).
+    bumps: Vec<f64>,
+    pieces: Vec<f64>,
+    sheets: Vec<f64>,
 }
 
 /// Signed distances to `mesh`, through OpenVDB's meshToLevelSet with a band of
@@ -189,11 +195,35 @@ fn measure(meshes: &[Mesh], clouds: &[Vec<Vec3>], r: f32, dx: f32) -> anyhow::Re
             )
         })
         .collect();
+    let bumps = meshes.par_iter().map(|m| look::bumps(m, r)).collect();
+    let pieces = meshes.iter().map(|m| look::pieces(m) as f64).collect();
+    // A single-layer sheet's particles lie on its mid-surface: twice their depth is its
+    // thickness.
+    let sheets = clouds
+        .iter()
+        .zip(&offsets)
+        .map(|(cloud, offsets)| {
+            let depths: Vec<f64> = look::single_layer(cloud, r)
+                .iter()
+                .zip(offsets)
+                .filter(|(sheet, _)| **sheet)
+                .map(|(_, d)| f64::from(-2.0 * d / r))
+                .collect();
+            // A few particles that happen to lie in a plane are no sheet.
+            match depths.len() < MIN_SHEET_PARTICLES {
+                true => f64::NAN,
+                false => median(&depths),
+            }
+        })
+        .collect();
     Ok(Measured {
         volume,
         outside,
         noise,
         flicker,
+        bumps,
+        pieces,
+        sheets,
     })
 }
 
@@ -307,6 +337,106 @@ pub fn race(
         )),
     }
     Ok(())
+}
+
+/// splashsurf's surface post-processing as its README recommends it for a smooth
+/// surface: the look artists compare with.
+const SPLASHSURF_SMOOTHING: [&str; 5] = [
+    "--mesh-cleanup=on",
+    "--mesh-smoothing-weights=on",
+    "--mesh-smoothing-iters=25",
+    "--normals=on",
+    "--normals-smoothing-iters=10",
+];
+
+/// The fewest single-layer particles a frame's sheets are measured on.
+const MIN_SHEET_PARTICLES: usize = 50;
+
+/// The frames of the dam break's wave running along the floor, and how many frames at
+/// the end are its sloshing.
+const WAVE_FRAMES: std::ops::RangeInclusive<usize> = 8..=12;
+const SLOSH_FRAMES: usize = 7;
+
+/// What a tool's surface looks like over a shot: bumps on the wave's run and on the
+/// last frames (degrees), pieces on the last frames, the median single-layer sheet
+/// (radii), the worst frame's particles more than r outside, and the time.
+fn look_of(m: &Measured, seconds: f64) -> serde_json::Value {
+    let frames = m.bumps.len();
+    let wave: Vec<f64> = WAVE_FRAMES
+        .filter(|f| *f <= frames)
+        .map(|f| m.bumps[f - 1])
+        .collect();
+    let last = frames.saturating_sub(SLOSH_FRAMES);
+    let sheets: Vec<f64> = m.sheets.iter().copied().filter(|t| t.is_finite()).collect();
+    json!({"bumps_wave_degrees": mean(&wave), "bumps_slosh_degrees": mean(&m.bumps[last..]),
+           "pieces_slosh": mean(&m.pieces[last..]),
+           "sheet_radii": (!sheets.is_empty()).then(|| median(&sheets)),
+           "outside_fraction": range(&m.outside).1,
+           "flicker_voxels": mean(&m.flicker), "noise_voxels": mean(&m.noise),
+           "seconds": seconds, "bumps_degrees": m.bumps, "pieces": m.pieces})
+}
+
+/// The look of ours, splashsurf raw and splashsurf smoothed on `shot`, in one line and
+/// in the report (`{key}_look`); ratios against smoothed splashsurf, the look to beat.
+fn looks(
+    shot: &Shot,
+    [ours, raw, smoothed]: [Option<(&Measured, f64)>; 3],
+    lines: &mut Vec<String>,
+    report: &mut serde_json::Map<String, serde_json::Value>,
+) {
+    let [ours, raw, smoothed] = [ours, raw, smoothed].map(|t| t.map(|(m, s)| look_of(m, s)));
+    let say = |who: &str, l: &serde_json::Value| {
+        format!(
+            "{who} bumps {:.2}° / {:.2}°, pieces {:.1}, sheets {}, {:.2} % > r outside, flicker {:.3}, noise {:.3}, {:.1} s",
+            l["bumps_wave_degrees"].as_f64().unwrap_or(f64::NAN),
+            l["bumps_slosh_degrees"].as_f64().unwrap_or(f64::NAN),
+            l["pieces_slosh"].as_f64().unwrap_or(f64::NAN),
+            l["sheet_radii"]
+                .as_f64()
+                .map_or("none".to_string(), |t| format!("{t:.2} r")),
+            100.0 * l["outside_fraction"].as_f64().unwrap_or(f64::NAN),
+            l["flicker_voxels"].as_f64().unwrap_or(f64::NAN),
+            l["noise_voxels"].as_f64().unwrap_or(f64::NAN),
+            l["seconds"].as_f64().unwrap_or(f64::NAN),
+        )
+    };
+    let mut line = format!(
+        "particles, {}: the look (bumps on the wave's run, frames {}–{} / the last {SLOSH_FRAMES} frames; pieces there; median single-layer sheet)",
+        shot.name,
+        WAVE_FRAMES.start(),
+        WAVE_FRAMES.end()
+    );
+    for (who, l) in [
+        ("ours", &ours),
+        ("splashsurf", &raw),
+        ("splashsurf smoothed", &smoothed),
+    ] {
+        if let Some(l) = l {
+            line += &format!("   {}", say(who, l));
+        }
+    }
+    let ratio = |key: &str| {
+        ours.as_ref()
+            .zip(smoothed.as_ref())
+            .and_then(|(a, b)| Some(a[key].as_f64()? / b[key].as_f64()?))
+    };
+    if let (Some(w), Some(s), Some(p), Some(t)) = (
+        ratio("bumps_wave_degrees"),
+        ratio("bumps_slosh_degrees"),
+        ratio("pieces_slosh"),
+        ratio("seconds"),
+    ) {
+        line += &format!(
+            "   against smoothed splashsurf: bumps {w:.2}× / {s:.2}×, pieces {p:.2}×, flicker {:.2}×, noise {:.2}×, time {t:.2}×",
+            ratio("flicker_voxels").unwrap_or(f64::NAN),
+            ratio("noise_voxels").unwrap_or(f64::NAN),
+        );
+    }
+    lines.push(line);
+    report.insert(
+        format!("{}_look", shot.key),
+        json!({"ours": ours, "splashsurf": raw, "splashsurf_smoothed": smoothed}),
+    );
 }
 
 /// One tool's mean flicker and particle-offset noise over a shot (voxels).
@@ -498,6 +628,22 @@ fn race_on(
         )?),
         None => None,
     };
+    // splashsurf with the post-processing its README recommends for a smooth surface.
+    let smoothed_s = match splashsurf {
+        Some(binary) => Some(timed(
+            Command::new(binary)
+                .arg("reconstruct")
+                .arg(cache.join(format!("{STEM}{{}}.ply")))
+                .args(["-r", &radius, "-l", "2.0", "-c", "1.0", "-t", "0.6", "-q"])
+                .args(SPLASHSURF_SMOOTHING)
+                .args(["-n", &rayon::current_num_threads().to_string()])
+                .args(["-s", "1", "-e", &frames.to_string()])
+                .arg("--output-dir")
+                .arg(&dir)
+                .args(["-o", "smoothed_{}.obj"]),
+        )?),
+        None => None,
+    };
     let clouds: Vec<Vec<Vec3>> = (1..=frames)
         .map(|f| Ok(particles::read(&cache.join(format!("{STEM}{f}.ply")))?.positions))
         .collect::<anyhow::Result<_>>()?;
@@ -545,6 +691,25 @@ fn race_on(
         )?),
         None => None,
     };
+    let smoothed = match splashsurf {
+        Some(_) => Some(measure(
+            &read(&|f| format!("smoothed_{f}.obj"))?,
+            &clouds,
+            r,
+            r,
+        )?),
+        None => None,
+    };
+    looks(
+        shot,
+        [
+            Some((&ours, ours_s)),
+            theirs.as_ref().zip(theirs_s),
+            smoothed.as_ref().zip(smoothed_s),
+        ],
+        lines,
+        report,
+    );
     let stats: Vec<serde_json::Value> = std::fs::read_to_string(dir.join("ours.jsonl"))?
         .lines()
         .filter_map(|l| serde_json::from_str(l).ok())
