@@ -305,6 +305,10 @@ impl<P: Potential> SparseGrid<P> {
         &self.blocks[id.0 as usize]
     }
 
+    pub(crate) fn block_mut(&mut self, id: BlockId) -> &mut Block<P> {
+        &mut self.blocks[id.0 as usize]
+    }
+
     /// Value of an unstored block (its tile side).
     pub(crate) fn tile_value(&self, coord: IVec3) -> P {
         if self.inside.contains(&coord) {

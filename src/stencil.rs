@@ -79,7 +79,7 @@ fn upwind_norms(at: impl Fn(i32, i32, i32) -> f32) -> (f32, f32) {
 /// term multiplies φxx + φzz), from a node's values at offsets (dx, dy, dz); 0 where |∇φ|
 /// vanishes. Branch-free, so that a row of nodes computes it together.
 #[inline(always)]
-pub(crate) fn mean_curvature(at: impl Fn(i32, i32, i32) -> f32) -> f32 {
+fn mean_curvature(at: impl Fn(i32, i32, i32) -> f32) -> f32 {
     let c = at(0, 0, 0);
     let fx = 0.5 * (at(1, 0, 0) - at(-1, 0, 0));
     let fy = 0.5 * (at(0, 1, 0) - at(0, -1, 0));

@@ -87,6 +87,10 @@ fn a_fluid_at_rest_keeps_its_volume_on_the_iso_density_surface() {
         fog.to_str().unwrap(),
         "--stats",
         stats_file.to_str().unwrap(),
+        // The attraction onto the density's iso-surface, unsmoothed (smoothing takes
+        // the skin off the lattice's terraces: tests/look.rs).
+        "--smooth",
+        "0",
         "-q",
     ]);
     assert!(

@@ -87,14 +87,13 @@ fn write_shot(dir: &Path, frames: usize) {
     }
 }
 
-#[test]
-fn a_thrown_ball_keeps_its_volume_and_no_lag_in_few_sub_steps() {
-    let dir = common::scratch();
-    let frames = 12;
-    write_shot(dir.path(), frames);
-    let pattern = dir.path().join("ball_$F.ply");
-    let stats = dir.path().join("stats.jsonl");
-    let meshes = dir.path().join("skin.####.obj");
+/// The thrown ball's run with `smooth` (`--smooth`): its volume held within 0.3 % on
+/// every frame, at most `most_lag` voxels from each frame's density, in few sub-steps;
+/// returns its first frame's volume.
+fn thrown_ball(dir: &Path, frames: usize, smooth: &str, most_lag: f64) -> f64 {
+    let pattern = dir.join("ball_$F.ply");
+    let stats = dir.join(format!("stats{smooth}.jsonl"));
+    let meshes = dir.join("skin.####.obj");
     let radius = R.to_string();
     let out = common::activeskin(&[
         "particles",
@@ -108,6 +107,8 @@ fn a_thrown_ball_keeps_its_volume_and_no_lag_in_few_sub_steps() {
         meshes.to_str().unwrap(),
         "--stats",
         stats.to_str().unwrap(),
+        "--smooth",
+        smooth,
         "-q",
     ]);
     common::assert_ok(&out);
@@ -133,7 +134,7 @@ fn a_thrown_ball_keeps_its_volume_and_no_lag_in_few_sub_steps() {
         let substeps = line["substeps"].as_u64().unwrap();
         let mesh = common::read_mesh(&meshes.with_file_name(format!("skin.{f:04}.obj"))).unwrap();
         let target = density
-            .target(&dir.path().join(format!("ball_{f}.ply")), f as i64)
+            .target(&dir.join(format!("ball_{f}.ply")), f as i64)
             .unwrap();
         let lag = mesh
             .positions
@@ -158,11 +159,14 @@ fn a_thrown_ball_keeps_its_volume_and_no_lag_in_few_sub_steps() {
         // The density's own iso-surface swells by 3 % as the ball spreads, and shrinks
         // 2 % as it thins: the skin holds the particles' volume.
         assert!((volume - 1.0).abs() <= 0.003, "frame {f}: {report:?}");
-        assert!(lag <= 0.5, "frame {f}: {report:?}");
+        assert!(lag <= most_lag, "frame {f}: {report:?}");
         assert!(substeps <= 3, "frame {f}: {report:?}");
         assert_eq!(line["components"].as_u64(), Some(1), "frame {f}");
     }
-    println!("thrown ball, per frame: {}", report.join("; "));
+    println!(
+        "thrown ball, --smooth {smooth}, per frame: {}",
+        report.join("; ")
+    );
     let fresh_range = fresh_volumes
         .iter()
         .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
@@ -170,7 +174,21 @@ fn a_thrown_ball_keeps_its_volume_and_no_lag_in_few_sub_steps() {
         fresh_range.1 - fresh_range.0 > 0.03,
         "the case no longer tests the hold: {report:?}"
     );
-    common::assert_clean_meshes(dir.path());
+    common::assert_clean_meshes(dir);
+    first_volume
+}
+
+#[test]
+fn a_thrown_ball_keeps_its_volume_and_no_lag_in_few_sub_steps() {
+    let dir = common::scratch();
+    let frames = 12;
+    write_shot(dir.path(), frames);
+    let pattern = dir.path().join("ball_$F.ply");
+    let radius = R.to_string();
+    // Unsmoothed, the skin follows each frame's density within half a voxel; smoothed
+    // (the default), within a voxel, the rim of the spreading puddle rounded.
+    thrown_ball(dir.path(), frames, "0", 0.5);
+    let first_volume = thrown_ball(dir.path(), frames, "1", 1.0);
 
     // --free-volume leaves the volume to the attraction: toward the density's, within
     // the 3 % the carry alone kept before the hold.

@@ -11,7 +11,7 @@ use activeskin::flow::Timing;
 use activeskin::frames::{
     InputFrames, OutputSpec, Outputs, ParticleInput, ParticleRun, Progress, Report,
 };
-use activeskin::skin::{SkinParams, SpeedParams};
+use activeskin::skin::{Physics, SkinParams, SpeedParams};
 use activeskin::target::{fluid_iso, DEFAULT_SMOOTHING_LENGTH};
 
 const DATA: &str = env!("CARGO_MANIFEST_DIR");
@@ -66,11 +66,12 @@ fn run_library(into: &Path) {
     let run = ParticleRun {
         input: &input,
         particles: &particles,
-        params: SkinParams {
-            dx,
-            speed: SpeedParams::default_for(dx, ALPHA),
-            ..SkinParams::default()
-        },
+        // The command's policy: a particle skin's defaults (its smoothing among them).
+        params: Physics {
+            alpha: ALPHA,
+            ..Physics::default()
+        }
+        .particle_params(RADIUS, dx),
         fps: 24.0,
         timing: Timing::Mid,
         write_from: 1,

@@ -10,7 +10,7 @@ use std::path::Path;
 use activeskin::frames::{AttributeChoice, ParticleInput, ParticleStream, StreamSpec};
 use activeskin::io::mesh::{write_with_values, VertexValues};
 use activeskin::particles::{Attribute, Particles};
-use activeskin::skin::{SkinParams, SpeedParams};
+use activeskin::skin::Physics;
 use common::{activeskin, assert_ok, scratch};
 use glam::Vec3;
 
@@ -59,11 +59,8 @@ fn spec() -> StreamSpec {
     };
     let dx = particles.dx;
     StreamSpec {
-        params: SkinParams {
-            dx,
-            speed: SpeedParams::default_for(dx, 4.0),
-            ..SkinParams::default()
-        },
+        // The command's policy: a particle skin's defaults (its smoothing among them).
+        params: Physics::default().particle_params(R, dx),
         particles,
         fps: 24.0,
         hold_volume: true,

@@ -139,6 +139,30 @@ def test_the_arrays_are_the_rust_buffers_handed_over():
     assert len(bases) == len(arrays), "arrays share one buffer"
 
 
+def test_smooth_is_the_commands(binary, tmp_path):
+    """smooth= is the command's --smooth: 0 makes its --smooth 0 meshes, unlike the
+    default's; a negative one is refused."""
+    data, cli = tmp_path / "data", tmp_path / "cli"
+    for d in (data, cli):
+        d.mkdir()
+    for f in range(1, 4):
+        write_ply(data / f"p.{f:04d}.ply", *ball(f))
+    subprocess.run(
+        [binary, "particles", "--particles", str(data / "p.####.ply"), "--radius", str(R),
+         "--smooth", "0", "--mesh", str(cli / "m.####.ply"), "-q"],
+        check=True,
+    )
+    plain, smoothed = activeskin.ParticleSkin(R, smooth=0), activeskin.ParticleSkin(R)
+    for f in range(1, 4):
+        p, ids, _ = ball(f)
+        mesh, other = plain.advance(p, ids=ids), smoothed.advance(p, ids=ids)
+        mesh.save(tmp_path / "m.ply")
+        assert (tmp_path / "m.ply").read_bytes() == (cli / f"m.{f:04d}.ply").read_bytes()
+        assert not np.array_equal(mesh.vertices, other.vertices)
+    with pytest.raises(ValueError, match="smoothing must be a non-negative number"):
+        activeskin.ParticleSkin(R, smooth=-1.0)
+
+
 def test_bad_arguments_raise_value_error_with_the_commands_message():
     for kwargs, text in [
         (dict(radius=-1.0), "--radius must be a positive number"),

@@ -91,6 +91,17 @@ pub(crate) fn redistance<P: Potential>(
     distance: impl Fn(&Halo, IVec3, f32) -> f32 + Sync,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
 ) {
+    redistance_within(grid, band_width, KEPT_WITHIN, distance, scratch);
+}
+
+/// [`redistance`], keeping the nodes whose slope is within `kept_within` of 1 (none at 0).
+pub(crate) fn redistance_within<P: Potential>(
+    grid: &mut SparseGrid<P>,
+    band_width: f32,
+    kept_within: f32,
+    distance: impl Fn(&Halo, IVec3, f32) -> f32 + Sync,
+    scratch: &mut Vec<[f32; BLOCK_NODES]>,
+) {
     sweep(grid, scratch, |halo, l, _, f| {
         let mut bound = f32::INFINITY;
         for e in IVec3::AXES {
@@ -104,7 +115,7 @@ pub(crate) fn redistance<P: Potential>(
         if bound > 1.0 {
             return f; // not next to the skin
         }
-        if (slope(halo, l) * band_width - 1.0).abs() < KEPT_WITHIN {
+        if (slope(halo, l) * band_width - 1.0).abs() < kept_within {
             return f;
         }
         let d = (distance(halo, l, bound) / band_width).min(1.0);

@@ -105,7 +105,18 @@ impl<P: Potential> Skin<P> {
             false => volume,
         };
         if let Some(volume) = volume {
-            self.shift_to_volume(volume);
+            // The offset is measured to first order; a smoothed skin's is larger (the
+            // flow took from its convex parts), so it is measured again once.
+            if self.shift_to_volume(volume) && smoothing > 0.0 {
+                self.polygonize();
+                self.shift_to_volume(volume);
+                // An offset of a voxel or more leaves the band's far side saturated
+                // next to the moved skin: the tube follows it and the band is a
+                // distance again before the export meshes it.
+                self.refit_band();
+                self.polygonize();
+                self.drop_crumbs();
+            }
         }
         let level_set = self.to_level_set();
         self.restore(&level_set)

@@ -25,6 +25,7 @@ use super::Skin;
 use crate::grid::{
     mask_offsets, node_offset, offset_coords, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES,
 };
+use crate::polygonize::distance_in_cells_around;
 use crate::target::Target;
 
 /// Half-depth (scaled potential, f = φ/(wΔx)) under which a feature is thin and spared
@@ -51,8 +52,11 @@ const STEP: f32 = 0.8;
 /// outside the skin would show.
 const NEAR_TARGET: f32 = 2.0;
 const SOFT: f32 = 1.0;
-/// Nodes next to the skin, where its place is decided (|f| below this).
+/// Nodes next to the skin, where its place is decided (|f| below this, 1.5 voxels at
+/// w = 3): the only ones the flow moves.
 const NEXT_TO_SKIN: f32 = 0.5;
+/// The least |∇f|² the flow divides by: a quarter of a distance's slope (1/w) at w = 3.
+const SLOPE_FLOOR: f32 = 0.25 * 0.25 / 9.0;
 
 impl<P: Potential> Skin<P> {
     /// Smooths the potential over `time` voxels² of curvature flow (steps of
@@ -81,7 +85,82 @@ impl<P: Potential> Skin<P> {
             );
             left -= 1.0;
         }
+        // The flow moves each level set at its own curvature, so the potential is no
+        // longer a distance: made one again next to the skin (exactly, from its cells)
+        // and beyond (upwind sweeps across the band), before the volume is measured and
+        // held, so that the export's re-distancing finds nothing more to move. (The
+        // steps move the skin less than the band is wide: the limit, or a voxel or two.)
+        self.refit_band();
         self.polygonize();
+        self.drop_crumbs();
+    }
+
+    /// Removes the pieces under a voxel³ that the flow or the offset after it left (a
+    /// bump's tip pinched off: no particle makes one so small), meshing again if any.
+    pub(super) fn drop_crumbs(&mut self) {
+        if drop_crumbs(&mut self.grid, &self.mesh, self.xf) {
+            self.polygonize();
+        }
+    }
+}
+
+/// Removes the pieces of `mesh` under a voxel³ (a bump's tip the flow pinched off: no
+/// particle makes one so small), setting the inside nodes around their vertices just
+/// outside; true when there were some.
+fn drop_crumbs<P: Potential>(
+    grid: &mut SparseGrid<P>,
+    mesh: &crate::mesh::Mesh,
+    xf: crate::grid::IndexToWorld,
+) -> bool {
+    let labels = crate::mesh::piece_labels(mesh);
+    let mut volumes: hashbrown::HashMap<u32, f64> = hashbrown::HashMap::new();
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| mesh.positions[i as usize].as_dvec3());
+        *volumes.entry(labels[t[0] as usize]).or_default() += a.dot(b.cross(c)) / 6.0;
+    }
+    let crumb = f64::from(xf.dx).powi(3);
+    let mut dropped = false;
+    for (i, p) in mesh.positions.iter().enumerate() {
+        if volumes.get(&labels[i]).map_or(true, |v| v.abs() >= crumb) {
+            continue;
+        }
+        let cell = ((*p - xf.origin) / xf.dx).floor().as_ivec3();
+        for n in 0..8 {
+            let ijk = cell + glam::IVec3::new(n / 4, n / 2 % 2, n % 2);
+            let coord = crate::grid::block_of(ijk);
+            if let Some(id) = grid.find(coord) {
+                let local = ijk - coord * BLOCK_DIM;
+                let offset = node_offset(local.x, local.y, local.z);
+                let block = grid.block_mut(id);
+                if block.values[offset].to_f32() < 0.0 {
+                    block.values[offset] = P::from_f32(1e-3);
+                    dropped = true;
+                }
+            }
+        }
+    }
+    dropped
+}
+
+impl<P: Potential> Skin<P> {
+    /// After the skin moved by more than the band's upkeep follows (the flow, a large
+    /// offset): the tube follows it (the polygonizer meshes its cells) and the potential
+    /// is made a distance again — next to the skin exactly, from its cells, and beyond by
+    /// upwind sweeps across the band — so that the export's re-distancing finds nothing
+    /// more to move.
+    pub(super) fn refit_band(&mut self) {
+        crate::grid::tube::upkeep(&mut self.grid);
+        let w = self.params.band_width;
+        band::redistance_within(
+            &mut self.grid,
+            w,
+            0.0,
+            |halo, l, bound| distance_in_cells_around(halo, l).min(bound),
+            &mut self.rates,
+        );
+        for _ in 0..2 * w.ceil() as usize {
+            band::renormalize(&mut self.grid, w, 0.0, &mut self.rates);
+        }
     }
 }
 
@@ -171,38 +250,23 @@ fn thin_weights<P: Potential>(
     grid: &SparseGrid<P>,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
 ) -> Vec<[f32; BLOCK_NODES]> {
-    // The least value over the cube of side 2·REACH + 1 around each node (REACH sweeps
-    // over the 27 nodes around, row by row): a cube reaches REACH deep whatever the
-    // normal (six neighbours would reach only REACH/√3 along a diagonal).
-    let mut low = grid.clone();
-    for _ in 0..REACH {
-        band::each_halo(&low, scratch, |halo, block, out| {
-            for (x, y, _) in block.active_rows() {
-                let mut m = [1.0f32; 10];
-                for dx in -1..=1 {
-                    for dy in -1..=1 {
-                        let start = Halo::index(x + dx, y + dy, -1);
-                        for (m, &v) in m.iter_mut().zip(&halo.values[start..start + 10]) {
-                            *m = m.min(v);
-                        }
-                    }
-                }
-                let start = node_offset(x, y, 0);
-                for z in 0..8 {
-                    out[start + z] = m[z].min(m[z + 1]).min(m[z + 2]);
-                }
-            }
-        });
-        band::write_back(&mut low, scratch, false);
-    }
+    let low = cube_extreme(grid, scratch, f32::min);
+    let high = cube_extreme(grid, scratch, f32::max);
     let mut weights = vec![[0.0f32; BLOCK_NODES]; grid.block_count()];
+    let sides = low.blocks().par_iter().zip(high.blocks().par_iter());
     weights
         .par_iter_mut()
-        .zip(grid.blocks().par_iter().zip(low.blocks().par_iter()))
-        .for_each_init(Box::<Halo>::default, |halo, (w, (block, lo))| {
+        .zip(grid.blocks().par_iter().zip(sides))
+        .for_each_init(Box::<Halo>::default, |halo, (w, (block, (lo, hi)))| {
             halo.gather(grid, block);
             for offset in mask_offsets(block.active) {
-                let deep = smoothstep((-lo.values[offset].to_f32() - THIN) / (DEEP - THIN));
+                let (lo, hi) = (lo.values[offset].to_f32(), hi.values[offset].to_f32());
+                // Only the skin's own neighbourhood moves: a shallow dip of the
+                // potential deep inside (or outside) would close into a bubble.
+                if lo >= 0.0 || hi < 0.0 {
+                    continue;
+                }
+                let deep = smoothstep((-lo - THIN) / (DEEP - THIN));
                 let l = offset_coords(offset);
                 let bend = bending(|x, y, z| halo.at(l.x + x, l.y + y, l.z + z));
                 let flat = smoothstep((CURVED - bend) / (CURVED - FLAT));
@@ -210,6 +274,42 @@ fn thin_weights<P: Potential>(
             }
         });
     weights
+}
+
+/// The least (`pick` = min) or greatest value over the cube of side 2·REACH + 1 around
+/// each active node (REACH sweeps over the 27 nodes around, row by row): a cube reaches
+/// REACH deep whatever the normal (six neighbours would reach only REACH/√3 along a
+/// diagonal).
+fn cube_extreme<P: Potential>(
+    grid: &SparseGrid<P>,
+    scratch: &mut Vec<[f32; BLOCK_NODES]>,
+    pick: fn(f32, f32) -> f32,
+) -> SparseGrid<P> {
+    let mut extreme = grid.clone();
+    for _ in 0..REACH {
+        band::each_halo(&extreme, scratch, |halo, block, out| {
+            for (x, y, _) in block.active_rows() {
+                let start = Halo::index(x, y, -1);
+                let mut m: [f32; 10] = halo.values[start..start + 10]
+                    .try_into()
+                    .expect("a halo row is ten values");
+                for dx in -1..=1 {
+                    for dy in -1..=1 {
+                        let start = Halo::index(x + dx, y + dy, -1);
+                        for (m, &v) in m.iter_mut().zip(&halo.values[start..start + 10]) {
+                            *m = pick(*m, v);
+                        }
+                    }
+                }
+                let start = node_offset(x, y, 0);
+                for z in 0..8 {
+                    out[start + z] = pick(pick(m[z], m[z + 1]), m[z + 2]);
+                }
+            }
+        });
+        band::write_back(&mut extreme, scratch, false);
+    }
+    extreme
 }
 
 /// How bent the level set through a node is, per voxel: √(κ₁² + κ₂²), the norm of its
@@ -285,7 +385,11 @@ fn curvature_step<P: Potential>(
                 let moved = tangential_laplacian_row(halo, x, y);
                 for z in 0..8 {
                     let f = halo.at(x, y, z as i32);
-                    let mut m = step / 6.0 * w[start + z] * moved[z];
+                    // Only the level sets near the skin move: deeper ones, near a
+                    // body's middle, shrink fast where the slope vanishes and would
+                    // reach the skin (the band is made a distance again afterwards).
+                    let near = f32::from(u8::from(f.abs() < NEXT_TO_SKIN));
+                    let mut m = step / 6.0 * w[start + z] * moved[z] * near;
                     if let (Some(limit), Some(d)) = (limit, distances) {
                         let d = d[start + z];
                         if d.is_finite() {
@@ -326,8 +430,9 @@ fn tangential_laplacian_row(halo: &Halo, x: i32, y: i32) -> [f32; 8] {
         let g2 = fx * fx + fy * fy + fz * fz;
         let numerator = fx * fx * (fyy + fzz) + fy * fy * (fxx + fzz) + fz * fz * (fxx + fyy)
             - 2.0 * (fx * fy * fxy + fy * fz * fyz + fx * fz * fxz);
-        let moved = numerator / g2.max(1e-12);
-        *out = if g2 < 1e-12 { 0.0 } else { moved };
+        // A slope under a quarter of a distance's (a body's middle, a saddle) moves no
+        // faster than at a quarter: the flow of level sets barely defined there.
+        *out = numerator / g2.max(SLOPE_FLOOR);
     }
     out
 }
