@@ -110,13 +110,14 @@ impl<P: Potential> Skin<P> {
             if self.shift_to_volume(volume) && smoothing > 0.0 {
                 self.polygonize();
                 self.shift_to_volume(volume);
-                // An offset of a voxel or more leaves the band's far side saturated
-                // next to the moved skin: the tube follows it and the band is a
-                // distance again before the export meshes it.
-                self.refit_band();
-                self.polygonize();
-                self.drop_crumbs();
             }
+        }
+        if smoothing > 0.0 {
+            // The flow and an offset of a voxel or more leave the band no distance
+            // (checkLevelSet would flag it) and may leave crumbs of a pinched tip.
+            self.refit_band();
+            self.polygonize();
+            self.drop_crumbs();
         }
         let level_set = self.to_level_set();
         self.restore(&level_set)

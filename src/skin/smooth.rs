@@ -90,9 +90,10 @@ impl<P: Potential> Skin<P> {
         // and beyond (upwind sweeps across the band), before the volume is measured and
         // held, so that the export's re-distancing finds nothing more to move. (The
         // steps move the skin less than the band is wide: the limit, or a voxel or two.)
-        self.refit_band();
+        // The tube follows the skin where it moved (the polygonizer meshes its cells);
+        // the band is made a distance again once the volume is held.
+        crate::grid::tube::upkeep(&mut self.grid);
         self.polygonize();
-        self.drop_crumbs();
     }
 
     /// Removes the pieces under a voxel³ that the flow or the offset after it left (a
@@ -158,7 +159,7 @@ impl<P: Potential> Skin<P> {
             |halo, l, bound| distance_in_cells_around(halo, l).min(bound),
             &mut self.rates,
         );
-        for _ in 0..2 * w.ceil() as usize {
+        for _ in 0..w.ceil() as usize {
             band::renormalize(&mut self.grid, w, 0.0, &mut self.rates);
         }
     }
@@ -283,7 +284,7 @@ fn thin_weights<P: Potential>(
 fn cube_extreme<P: Potential>(
     grid: &SparseGrid<P>,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
-    pick: fn(f32, f32) -> f32,
+    pick: impl Fn(f32, f32) -> f32 + Sync + Copy,
 ) -> SparseGrid<P> {
     let mut extreme = grid.clone();
     for _ in 0..REACH {
