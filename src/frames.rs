@@ -277,13 +277,14 @@ pub fn run<'t>(
     let any_velocities = mesh_velocities || grid_velocities || render_motion;
     let attributes = outputs.vertices_hold_values();
     let mut settled_before = restored.filter(|_| any_velocities);
+    let smooths = skin.params().smoothing > 0.0;
     for frame in start..=last {
         let started = Instant::now();
         let duration = 1.0 / fps;
         let input = if frame == first {
             // Read only for the velocity and attributes it has (the next frame reads it
-            // anyway).
-            match (any_velocities || attributes) && frame >= write_from {
+            // anyway), and for the smoothing to stay near, on every run alike.
+            match ((any_velocities || attributes) && frame >= write_from) || smooths {
                 true => Some(input_at(frame)?),
                 false => None,
             }
@@ -335,11 +336,11 @@ pub fn run<'t>(
             .as_ref()
             .filter(|_| frame != first)
             .and_then(|i| i.volume);
-        // The smoothing stays near the frame's target (not on the first frame, whose
-        // input is read only for some outputs: the skin starts on it anyway).
+        // The smoothing stays near the frame's target (read on the first frame too
+        // whenever the skin smooths, whatever the outputs).
         let near = input
             .as_ref()
-            .filter(|_| frame != first)
+            .filter(|_| smooths)
             .map(|i| &*i.target as &dyn Target);
         let level_set = skin.settle_holding(hold, near);
         if frame >= write_from {

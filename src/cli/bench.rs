@@ -60,8 +60,9 @@ pub struct BenchArgs {
     /// Also race splashsurf on particles: a SPlisHSPlasH dam break in motion (baked once
     /// into ~/.cache/activeskin/sph, or ACTIVESKIN_SPH_CACHE, with pysplishsplash; skipped
     /// when it cannot be) and a smoothly twisting ellipsoid of particles (whose true
-    /// surface is smooth in time), time, volume, particles outside, temporal noise and flicker;
-    /// 100 k and 1 M particles at rest, ms per frame; distance to the true surface and
+    /// surface is smooth in time), time, volume, particles outside, temporal noise and flicker,
+    /// and the look (bumps, pieces, single-layer sheets) beside splashsurf smoothed as its
+    /// README recommends; 100 k and 1 M particles at rest, ms per frame; distance to the true surface and
     /// flicker on a fluid at rest. splashsurf is installed into the cache folder with
     /// cargo when not found.
     #[arg(long)]

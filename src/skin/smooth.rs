@@ -90,9 +90,10 @@ impl<P: Potential> Skin<P> {
         // and beyond (upwind sweeps across the band), before the volume is measured and
         // held, so that the export's re-distancing finds nothing more to move. (The
         // steps move the skin less than the band is wide: the limit, or a voxel or two.)
-        // The tube follows the skin where it moved (the polygonizer meshes its cells);
-        // the band is made a distance again once the volume is held.
-        crate::grid::tube::upkeep(&mut self.grid);
+        // The tube follows the skin where it moved (the polygonizer meshes its cells),
+        // the band a distance again before the volume is measured and offset (and once
+        // more after: `Skin::settle_holding`).
+        self.refit_band();
         self.polygonize();
     }
 
@@ -159,7 +160,7 @@ impl<P: Potential> Skin<P> {
             |halo, l, bound| distance_in_cells_around(halo, l).min(bound),
             &mut self.rates,
         );
-        for _ in 0..w.ceil() as usize {
+        for _ in 0..2 * w.ceil() as usize {
             band::renormalize(&mut self.grid, w, 0.0, &mut self.rates);
         }
     }
@@ -463,12 +464,13 @@ mod tests {
         );
         let volume = |s: &Skin<f32>| s.stats().volume;
         let before = volume(&skin);
-        let time = 8.0;
+        // Half a voxel: the flow moves only the nodes within 1.5 voxels of the skin.
+        let time = 4.0;
         skin.smooth(time, None);
         let r0 = (3.0 * before / (4.0 * std::f64::consts::PI)).cbrt() / f64::from(dx);
         let r1 = (3.0 * volume(&skin) / (4.0 * std::f64::consts::PI)).cbrt() / f64::from(dx);
         let expected = (r0 * r0 - 4.0 * f64::from(time)).sqrt();
         eprintln!("radius {r0:.3} → {r1:.3} voxels, curvature flow says {expected:.3}");
-        assert!((r1 - expected).abs() < 0.1, "{r1} against {expected}");
+        assert!((r1 - expected).abs() < 0.05, "{r1} against {expected}");
     }
 }
