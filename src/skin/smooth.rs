@@ -114,25 +114,13 @@ fn drop_crumbs<P: Potential>(
     mesh: &crate::mesh::Mesh,
     xf: crate::grid::IndexToWorld,
 ) -> bool {
-    let labels = crate::mesh::piece_labels(mesh);
-    let mut volumes: hashbrown::HashMap<u32, f64> = hashbrown::HashMap::new();
-    for t in &mesh.triangles {
-        let [a, b, c] = t.map(|i| mesh.positions[i as usize].as_dvec3());
-        *volumes.entry(labels[t[0] as usize]).or_default() += a.dot(b.cross(c)) / 6.0;
-    }
     let crumb = f64::from(xf.dx).powi(3);
     let mut dropped = false;
-    for (i, p) in mesh.positions.iter().enumerate() {
-        if volumes.get(&labels[i]).map_or(true, |v| v.abs() >= crumb) {
-            continue;
-        }
-        let cell = ((*p - xf.origin) / xf.dx).floor().as_ivec3();
+    for p in vertices_of_pieces(mesh, |v| v.abs() < crumb) {
+        let cell = ((p - xf.origin) / xf.dx).floor().as_ivec3();
         for n in 0..8 {
             let ijk = cell + glam::IVec3::new(n / 4, n / 2 % 2, n % 2);
-            let coord = crate::grid::block_of(ijk);
-            if let Some(id) = grid.find(coord) {
-                let local = ijk - coord * BLOCK_DIM;
-                let offset = node_offset(local.x, local.y, local.z);
+            if let Some((id, offset)) = node(grid, ijk) {
                 let block = grid.block_mut(id);
                 if block.values[offset].to_f32() < 0.0 {
                     block.values[offset] = P::from_f32(1e-3);
@@ -142,6 +130,33 @@ fn drop_crumbs<P: Potential>(
         }
     }
     dropped
+}
+
+/// The vertices of the pieces of `mesh` whose enclosed volume passes `keep`.
+fn vertices_of_pieces(mesh: &crate::mesh::Mesh, keep: impl Fn(f64) -> bool) -> Vec<Vec3> {
+    let labels = crate::mesh::piece_labels(mesh);
+    let mut volumes: hashbrown::HashMap<u32, f64> = hashbrown::HashMap::new();
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| mesh.positions[i as usize].as_dvec3());
+        *volumes.entry(labels[t[0] as usize]).or_default() += a.dot(b.cross(c)) / 6.0;
+    }
+    mesh.positions
+        .iter()
+        .zip(labels)
+        .filter(|(_, label)| volumes.get(label).is_some_and(|v| keep(*v)))
+        .map(|(p, _)| *p)
+        .collect()
+}
+
+/// The stored block and offset of node `ijk`, if its block is stored.
+fn node<P: Potential>(
+    grid: &SparseGrid<P>,
+    ijk: glam::IVec3,
+) -> Option<(crate::grid::BlockId, usize)> {
+    let coord = crate::grid::block_of(ijk);
+    let local = ijk - coord * BLOCK_DIM;
+    grid.find(coord)
+        .map(|id| (id, node_offset(local.x, local.y, local.z)))
 }
 
 impl<P: Potential> Skin<P> {
@@ -199,24 +214,13 @@ fn spare_small_pieces<P: Potential>(
     xf: crate::grid::IndexToWorld,
     weights: &mut [[f32; BLOCK_NODES]],
 ) {
-    let labels = crate::mesh::piece_labels(mesh);
-    let mut volumes: hashbrown::HashMap<u32, f64> = hashbrown::HashMap::new();
-    for t in &mesh.triangles {
-        let [a, b, c] = t.map(|i| mesh.positions[i as usize].as_dvec3());
-        *volumes.entry(labels[t[0] as usize]).or_default() += a.dot(b.cross(c)) / 6.0;
-    }
     let small = f64::from(SMALL_PIECE) * f64::from(xf.dx).powi(3);
-    for (i, p) in mesh.positions.iter().enumerate() {
-        if volumes.get(&labels[i]).map_or(true, |v| *v >= small) {
-            continue;
-        }
-        let cell = ((*p - xf.origin) / xf.dx).floor().as_ivec3();
+    for p in vertices_of_pieces(mesh, |v| v < small) {
+        let cell = ((p - xf.origin) / xf.dx).floor().as_ivec3();
         for n in 0..64 {
             let ijk = cell + glam::IVec3::new(n / 16 - 1, n / 4 % 4 - 1, n % 4 - 1);
-            let coord = crate::grid::block_of(ijk);
-            if let Some(id) = grid.find(coord) {
-                let local = ijk - coord * BLOCK_DIM;
-                weights[id.0 as usize][node_offset(local.x, local.y, local.z)] = 0.0;
+            if let Some((id, offset)) = node(grid, ijk) {
+                weights[id.0 as usize][offset] = 0.0;
             }
         }
     }

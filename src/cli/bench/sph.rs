@@ -614,36 +614,27 @@ fn race_on(
     };
     let ours_s = ours(false)?;
     ours(true)?;
-    let theirs_s = match splashsurf {
-        Some(binary) => Some(timed(
+    // splashsurf raw, then with the post-processing its README recommends for a smooth
+    // surface: each run's wall seconds, meshes `{prefix}_{frame}.obj`.
+    let splashsurf_run = |extra: &[&str], prefix: &str| -> anyhow::Result<Option<f64>> {
+        let Some(binary) = splashsurf else {
+            return Ok(None);
+        };
+        Ok(Some(timed(
             Command::new(binary)
                 .arg("reconstruct")
                 .arg(cache.join(format!("{STEM}{{}}.ply")))
                 .args(["-r", &radius, "-l", "2.0", "-c", "1.0", "-t", "0.6", "-q"])
+                .args(extra)
                 .args(["-n", &rayon::current_num_threads().to_string()])
                 .args(["-s", "1", "-e", &frames.to_string()])
                 .arg("--output-dir")
                 .arg(&dir)
-                .args(["-o", "theirs_{}.obj"]),
-        )?),
-        None => None,
+                .args(["-o", &format!("{prefix}_{{}}.obj")]),
+        )?))
     };
-    // splashsurf with the post-processing its README recommends for a smooth surface.
-    let smoothed_s = match splashsurf {
-        Some(binary) => Some(timed(
-            Command::new(binary)
-                .arg("reconstruct")
-                .arg(cache.join(format!("{STEM}{{}}.ply")))
-                .args(["-r", &radius, "-l", "2.0", "-c", "1.0", "-t", "0.6", "-q"])
-                .args(SPLASHSURF_SMOOTHING)
-                .args(["-n", &rayon::current_num_threads().to_string()])
-                .args(["-s", "1", "-e", &frames.to_string()])
-                .arg("--output-dir")
-                .arg(&dir)
-                .args(["-o", "smoothed_{}.obj"]),
-        )?),
-        None => None,
-    };
+    let theirs_s = splashsurf_run(&[], "theirs")?;
+    let smoothed_s = splashsurf_run(&SPLASHSURF_SMOOTHING, "smoothed")?;
     let clouds: Vec<Vec<Vec3>> = (1..=frames)
         .map(|f| Ok(particles::read(&cache.join(format!("{STEM}{f}.ply")))?.positions))
         .collect::<anyhow::Result<_>>()?;
@@ -682,24 +673,18 @@ fn race_on(
             Ok(sum / m.positions.len().max(1) as f64 / f64::from(r))
         })
         .collect::<anyhow::Result<_>>()?;
-    let theirs = match splashsurf {
-        Some(_) => Some(measure(
-            &read(&|f| format!("theirs_{f}.obj"))?,
-            &clouds,
-            r,
-            r,
-        )?),
-        None => None,
+    let measured = |prefix: &str| -> anyhow::Result<Option<Measured>> {
+        match splashsurf {
+            Some(_) => Ok(Some(measure(
+                &read(&|f| format!("{prefix}_{f}.obj"))?,
+                &clouds,
+                r,
+                r,
+            )?)),
+            None => Ok(None),
+        }
     };
-    let smoothed = match splashsurf {
-        Some(_) => Some(measure(
-            &read(&|f| format!("smoothed_{f}.obj"))?,
-            &clouds,
-            r,
-            r,
-        )?),
-        None => None,
-    };
+    let (theirs, smoothed) = (measured("theirs")?, measured("smoothed")?);
     looks(
         shot,
         [
