@@ -13,7 +13,7 @@ fn main() {
     let (mut bumps, mut pieces, mut n) = (0.0, 0.0, 0.0);
     for path in args {
         let mesh = activeskin::io::obj::read(std::path::Path::new(&path)).expect("an OBJ mesh");
-        let (b, p) = (look::bumps(&mesh, radius), look::pieces(&mesh));
+        let (b, p) = (look::bumps(&mesh, radius), look::pieces(&mesh, radius));
         println!("{path}: bumps {b:.2}°, {p} pieces");
         (bumps, pieces, n) = (bumps + b, pieces + p as f64, n + 1.0);
     }

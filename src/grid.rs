@@ -151,6 +151,16 @@ pub(crate) fn mask_offsets(mask: [u64; 8]) -> impl Iterator<Item = usize> {
     })
 }
 
+/// The six steps to a node's (or a block's) face neighbours.
+pub(crate) const FACES: [IVec3; 6] = [
+    IVec3::NEG_X,
+    IVec3::X,
+    IVec3::NEG_Y,
+    IVec3::Y,
+    IVec3::NEG_Z,
+    IVec3::Z,
+];
+
 /// The 26 steps to a block's neighbours: [`AROUND`] without its own.
 pub(crate) fn neighbour_steps() -> impl Iterator<Item = IVec3> {
     AROUND.into_iter().filter(|d| *d != IVec3::ZERO)

@@ -30,6 +30,18 @@ pub fn gradient(target: &dyn Target, p: Vec3, h: f32) -> Vec3 {
 /// distance to the iso-surface, so that α is a rate (1/s) whatever the target.
 pub trait Target: Sync {
     fn distance(&self, p: Vec3) -> f32;
+    /// Whether `p` is inside: `distance(p) < 0`, sooner where that is cheaper to know.
+    fn inside(&self, p: Vec3) -> bool {
+        self.distance(p) < 0.0
+    }
+    /// [`Target::inside`] at each node of one block, the node at offset `o` (OpenVDB's
+    /// leaf order) at `corner + dx·offset_coords(o)`; node by node unless a target knows
+    /// better (a grid sharing the nodes reads them without interpolating).
+    fn block_inside(&self, corner: Vec3, dx: f32, out: &mut [bool; crate::grid::BLOCK_NODES]) {
+        for (o, inside) in out.iter_mut().enumerate() {
+            *inside = self.inside(corner + crate::grid::offset_coords(o).as_vec3() * dx);
+        }
+    }
     /// A box holding the whole inside of the target.
     fn bounds(&self) -> Aabb;
     /// False only when no point of `region` is inside the target, so that a seed can skip
@@ -55,6 +67,12 @@ impl<T: Target + ?Sized> Target for &T {
     fn distance(&self, p: Vec3) -> f32 {
         (**self).distance(p)
     }
+    fn inside(&self, p: Vec3) -> bool {
+        (**self).inside(p)
+    }
+    fn block_inside(&self, corner: Vec3, dx: f32, out: &mut [bool; crate::grid::BLOCK_NODES]) {
+        (**self).block_inside(corner, dx, out)
+    }
     fn bounds(&self) -> Aabb {
         (**self).bounds()
     }
@@ -73,6 +91,12 @@ impl<T: Target + ?Sized + Send> Target for std::sync::Arc<T> {
     fn distance(&self, p: Vec3) -> f32 {
         (**self).distance(p)
     }
+    fn inside(&self, p: Vec3) -> bool {
+        (**self).inside(p)
+    }
+    fn block_inside(&self, corner: Vec3, dx: f32, out: &mut [bool; crate::grid::BLOCK_NODES]) {
+        (**self).block_inside(corner, dx, out)
+    }
     fn bounds(&self) -> Aabb {
         (**self).bounds()
     }
@@ -90,6 +114,12 @@ impl<T: Target + ?Sized + Send> Target for std::sync::Arc<T> {
 impl<T: Target + ?Sized> Target for Box<T> {
     fn distance(&self, p: Vec3) -> f32 {
         (**self).distance(p)
+    }
+    fn inside(&self, p: Vec3) -> bool {
+        (**self).inside(p)
+    }
+    fn block_inside(&self, corner: Vec3, dx: f32, out: &mut [bool; crate::grid::BLOCK_NODES]) {
+        (**self).block_inside(corner, dx, out)
     }
     fn bounds(&self) -> Aabb {
         (**self).bounds()

@@ -125,7 +125,7 @@ fn droplets_of_one_to_three_particles_survive() {
         [3, 10, 8],
     ]);
     let mesh = skin(&cells, 12, 0.1, None);
-    assert_eq!(look::pieces(&mesh), 4, "the pool and three droplets");
+    assert_eq!(look::pieces(&mesh, R), 4, "the pool and three droplets");
 }
 
 /// A sheet one particle thick stays one closed sheet (one piece, χ = 2), as thick as the
@@ -136,7 +136,7 @@ fn a_sheet_one_particle_thick_stays_one_closed_sheet() {
     let thickness = |m: &Mesh| 2.0 * m.volume() / m.area() / f64::from(R);
     let smoothed = skin(&cells, 12, 0.2, None);
     let raw = skin(&cells, 12, 0.2, Some(0.0));
-    assert_eq!(look::pieces(&smoothed), 1);
+    assert_eq!(look::pieces(&smoothed, R), 1);
     assert_eq!(smoothed.euler_characteristic(), 2);
     let (t, t0) = (thickness(&smoothed), thickness(&raw));
     eprintln!("sheet: {t:.2} r smoothed, {t0:.2} r without");

@@ -75,3 +75,52 @@ fn a_target_that_outruns_the_skin_is_never_lost() {
         "unseeded, the skin was expected to lose the target"
     );
 }
+
+/// A droplet torn off within a block of the skin — too near for the block rule, too small
+/// and too far for the attraction to grow it — is seeded as its own piece; target
+/// material that the skin only lags behind, or a droplet nearer than 1 voxel, is left to
+/// the attraction.
+#[test]
+fn a_droplet_the_skin_lost_nearby_is_seeded_and_nothing_joined_to_it() {
+    let body = sphere(0.0);
+    let droplet = |gap: f32| Sphere {
+        center: Vec3::new(0.25 + (gap + 1.5) * DX, 0.0, 0.0),
+        radius: 1.5 * DX,
+    };
+    let with = |gap: f32| Union(vec![Box::new(sphere(0.0)), Box::new(droplet(gap))]);
+    for (gap, pieces) in [(3.0, 2), (1.8, 2), (0.6, 1)] {
+        let mut skin: Skin<f32> = Skin::new(&body, params());
+        let target = with(gap);
+        let seeded = skin.seed(&target);
+        assert_eq!(
+            (seeded > 0, skin.stats().components),
+            (pieces == 2, pieces),
+            "a droplet {gap} voxels off"
+        );
+        let check = skin.mesh().check();
+        assert!(check.is_clean(), "{check}");
+        if pieces == 2 {
+            // The droplet as the target has it: the seed is the target's own surface.
+            let far = skin
+                .mesh()
+                .positions
+                .iter()
+                .filter(|p| p.x > 0.25 + 0.5 * gap * DX)
+                .map(|&p| droplet(gap).distance(p).abs() / DX)
+                .fold(0.0f32, f32::max);
+            assert!(
+                far < 0.3,
+                "the seeded droplet is {far} voxels off its sphere"
+            );
+        }
+    }
+    // The target grown 2 voxels all round: its material lies outside the skin, joined to
+    // it everywhere, and no piece of it is lost.
+    let mut skin: Skin<f32> = Skin::new(&body, params());
+    let grown = Sphere {
+        radius: 0.25 + 2.0 * DX,
+        ..sphere(0.0)
+    };
+    assert_eq!(skin.seed(&grown), 0);
+    assert_eq!(skin.stats().components, 1);
+}

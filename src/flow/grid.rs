@@ -197,14 +197,7 @@ impl Flow for GridFlow {
 /// sums the faces in a fixed order, so the result does not depend on the map's order (a
 /// resumed run must repeat an uninterrupted one bit for bit).
 fn extend(voxels: &mut HashMap<IVec3, Vec3>, layers: u32) {
-    const FACES: [IVec3; 6] = [
-        IVec3::NEG_X,
-        IVec3::X,
-        IVec3::NEG_Y,
-        IVec3::Y,
-        IVec3::NEG_Z,
-        IVec3::Z,
-    ];
+    use crate::grid::FACES;
     // Each ring grows from the one before: a deep extension costs its own voxels only.
     let mut last: Vec<IVec3> = voxels.keys().copied().collect();
     for _ in 0..layers {

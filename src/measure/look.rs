@@ -37,9 +37,23 @@ impl Buckets {
     }
 }
 
-/// Connected pieces of a mesh (droplets, sheets torn off): [`Mesh::components`].
-pub fn pieces(mesh: &Mesh) -> usize {
-    mesh.components()
+/// The least a piece must enclose to count, in particle volumes (2r)³: a lone particle
+/// encloses about one; smoothing that shrinks a droplet to a speck of no volume (as
+/// splashsurf's does) leaves a piece no one sees.
+pub const PIECE_PARTICLE_VOLUMES: f64 = 0.1;
+
+/// Connected pieces of a mesh that enclose liquid (droplets, sheets torn off, the body):
+/// those whose outward volume is at least [`PIECE_PARTICLE_VOLUMES`] of a particle's
+/// (2·`radius`)³. Specks of no volume and cavities (inward pieces, bubbles) not counted.
+pub fn pieces(mesh: &Mesh, radius: f32) -> usize {
+    let labels = crate::mesh::piece_labels(mesh);
+    let mut volumes: HashMap<u32, f64> = HashMap::new();
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| mesh.positions[i as usize].as_dvec3());
+        *volumes.entry(labels[t[0] as usize]).or_default() += a.dot(b.cross(c)) / 6.0;
+    }
+    let least = PIECE_PARTICLE_VOLUMES * (2.0 * f64::from(radius)).powi(3);
+    volumes.values().filter(|&&v| v >= least).count()
 }
 
 /// Particle-scale bumps, in degrees: on the largest connected piece of `mesh`, the mean
@@ -163,7 +177,7 @@ mod tests {
             radius: 0.6,
         };
         let mesh = mesh_vdb(sample::level_set(&sphere, dx, 3.0), |v| v);
-        assert_eq!(pieces(&mesh), 1);
+        assert_eq!(pieces(&mesh, dx), 1);
         // A smooth surface turns symmetrically about each vertex: what is left is
         // marching cubes' own facets (measured 0.70°).
         let b = bumps(&mesh, dx);

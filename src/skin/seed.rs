@@ -8,7 +8,7 @@ use hashbrown::HashSet;
 use rayon::prelude::*;
 
 use super::Skin;
-use crate::grid::{offset_coords, Potential, AROUND, BLOCK_DIM, BLOCK_NODES};
+use crate::grid::{node_offset, offset_coords, Potential, AROUND, BLOCK_DIM, BLOCK_NODES};
 use crate::grid::{Aabb, IndexToWorld};
 use crate::target::Target;
 
@@ -99,11 +99,22 @@ fn block_centre_distance(target: &dyn Target, xf: IndexToWorld, c: IVec3) -> f32
     target.distance(xf.apply((c * BLOCK_DIM).as_vec3() + Vec3::splat(3.5)))
 }
 
+/// How far outside the skin (voxels) every node of a target piece must lie for the
+/// piece to count as one the skin lost: a droplet torn off beyond what the skin's tension
+/// holds, within a block of the skin. A piece closer than that, or joined through the
+/// target's material to where the skin is, is the attraction's to reach.
+const LOST_VOXELS: f32 = 1.0;
+
+/// A block's node values as seeds: the smaller of the skin's and the seed's is kept.
+type Seeds = Vec<(IVec3, Box<[f32; BLOCK_NODES]>)>;
+
 impl<P: Potential> Skin<P> {
-    /// Seeds the skin where `target` has material and the skin has none within a block
-    /// (8 voxels) around: each such block takes the smaller of the skin's potential and
-    /// the target's distance. Returns the number of blocks seeded (then the tube and the
-    /// mesh are rebuilt).
+    /// Seeds the skin with the target's pieces it has none of: blocks where the target
+    /// has material and the skin none within a block (8 voxels) around, and, within
+    /// that block, target pieces wholly [`LOST_VOXELS`] outside the skin (a droplet it
+    /// lost). Each seeded node takes the smaller of the skin's potential and the target's
+    /// distance. Returns the number of blocks seeded (then the tube and the mesh are
+    /// rebuilt).
     pub fn seed(&mut self, target: &dyn Target) -> usize {
         let (dx, w) = (self.params.dx, self.params.band_width);
         let reach = block_reach(w, dx);
@@ -121,18 +132,13 @@ impl<P: Potential> Skin<P> {
             .collect();
         let near_skin = |c: IVec3| AROUND.iter().any(|&d| occupied.contains(&(c + d)));
         let xf = self.xf;
-        let wanted: Vec<(IVec3, Box<[f32; BLOCK_NODES]>)> = target_blocks(target, xf, w)
+        let (near, far): (Vec<IVec3>, Vec<IVec3>) = target_blocks(target, xf, w)
             .into_par_iter()
-            .filter(|&c| {
-                let corner = |k: i32| xf.apply((c * BLOCK_DIM + IVec3::splat(k)).as_vec3());
-                let region = Aabb {
-                    min: corner(0),
-                    max: corner(BLOCK_DIM - 1),
-                };
-                !near_skin(c)
-                    && target.may_be_inside(region)
-                    && block_centre_distance(target, xf, c) <= reach
-            })
+            .filter(|&c| target.may_be_inside(block_region(xf, c)))
+            .partition(|&c| near_skin(c));
+        let mut wanted: Seeds = far
+            .into_par_iter()
+            .filter(|&c| block_centre_distance(target, xf, c) <= reach)
             .filter_map(|c| {
                 let base = c * BLOCK_DIM;
                 let mut values = Box::new([0.0f32; BLOCK_NODES]);
@@ -145,6 +151,7 @@ impl<P: Potential> Skin<P> {
                 material.then_some((c, values))
             })
             .collect();
+        wanted.extend(self.lost_pieces(target, &near));
         if wanted.is_empty() {
             return 0;
         }
@@ -177,5 +184,138 @@ impl<P: Potential> Skin<P> {
         }
         self.polygonize();
         wanted.len()
+    }
+
+    /// Seeds for the target's pieces in blocks `near` the skin that lie wholly
+    /// [`LOST_VOXELS`] outside it: the target's material outside the skin, flooded
+    /// node to node, kept where no node of it comes nearer the skin than that. Each
+    /// such piece's nodes and the nodes around them take the smaller of the skin's
+    /// potential and the target's distance.
+    fn lost_pieces(&self, target: &dyn Target, near: &[IVec3]) -> Seeds {
+        let (dx, w) = (self.params.dx, self.params.band_width);
+        let lost = (LOST_VOXELS / w).min(1.0);
+        let xf = self.xf;
+        // Each block's skin potential and where the target has material outside it.
+        let read = |c: IVec3| -> Option<Nodes> {
+            let skin: Box<[f32; BLOCK_NODES]> = Box::new(match self.grid.find(c) {
+                Some(id) => std::array::from_fn(|o| self.grid.block(id).values[o].to_f32()),
+                None => [self.grid.tile_value(c).to_f32(); BLOCK_NODES],
+            });
+            if skin.iter().all(|&s| s <= 0.0) {
+                return None;
+            }
+            let mut wet = Box::new([false; BLOCK_NODES]);
+            target.block_inside(xf.apply((c * BLOCK_DIM).as_vec3()), dx, &mut wet);
+            for (wet, &s) in wet.iter_mut().zip(skin.iter()) {
+                *wet &= s > 0.0;
+            }
+            Some(Nodes { skin, wet })
+        };
+        // Blocks holding target material far outside the skin: where a lost piece may
+        // start.
+        let starts: Vec<IVec3> = near
+            .par_iter()
+            .copied()
+            .filter(|&c| {
+                read(c).is_some_and(|n| (0..BLOCK_NODES).any(|o| n.wet[o] && n.skin[o] >= lost))
+            })
+            .collect();
+        if starts.is_empty() {
+            return Vec::new();
+        }
+        let mut around: Vec<IVec3> = starts
+            .iter()
+            .flat_map(|&c| AROUND.iter().map(move |&d| c + d))
+            .collect();
+        around.sort_unstable_by_key(|c| c.to_array());
+        around.dedup();
+        let blocks: hashbrown::HashMap<IVec3, Option<Nodes>> = around
+            .into_par_iter()
+            .map(|c| (c, read(c)))
+            .collect::<Vec<_>>()
+            .into_iter()
+            .collect();
+        // A node's skin potential and whether it is target material outside the skin;
+        // `None` beyond the blocks read.
+        let node = |n: IVec3| {
+            let c = n.div_euclid(IVec3::splat(BLOCK_DIM));
+            let l = n - c * BLOCK_DIM;
+            let o = node_offset(l.x, l.y, l.z);
+            blocks.get(&c).map(|b| match b {
+                Some(b) => (b.skin[o], b.wet[o]),
+                None => (-1.0, false),
+            })
+        };
+        // Flood the material from each far node, six neighbours at a time.
+        let mut seen: HashSet<IVec3> = HashSet::new();
+        let mut pieces: Vec<IVec3> = Vec::new();
+        for &c in &starts {
+            for o in 0..BLOCK_NODES {
+                let start = c * BLOCK_DIM + offset_coords(o);
+                if !node(start).is_some_and(|(s, wet)| wet && s >= lost) || !seen.insert(start) {
+                    continue;
+                }
+                let (mut piece, mut open, mut kept) = (vec![start], vec![start], true);
+                while let Some(n) = open.pop() {
+                    for step in crate::grid::FACES {
+                        let m = n + step;
+                        match node(m) {
+                            // Beyond the blocks read: the piece is not known whole.
+                            None => kept = false,
+                            Some((s, true)) => {
+                                kept &= s >= lost;
+                                if seen.insert(m) {
+                                    piece.push(m);
+                                    open.push(m);
+                                }
+                            }
+                            // The skin's own material next to the target's: joined.
+                            Some((s, false)) => kept &= s > 0.0,
+                        }
+                    }
+                }
+                if kept {
+                    pieces.extend(piece);
+                }
+            }
+        }
+        // The kept pieces' nodes and the nodes around them (their band), by block.
+        let mut band: Vec<IVec3> = pieces
+            .iter()
+            .flat_map(|&n| AROUND.iter().map(move |&d| n + d))
+            .collect();
+        band.sort_unstable_by_key(|n| n.to_array());
+        band.dedup();
+        let mut seeds: hashbrown::HashMap<IVec3, Box<[f32; BLOCK_NODES]>> = Default::default();
+        for n in band {
+            let Some((s, _)) = node(n).filter(|&(s, _)| s > 0.0) else {
+                continue;
+            };
+            let d = target.distance(xf.apply(n.as_vec3())) / (w * dx);
+            let c = n.div_euclid(IVec3::splat(BLOCK_DIM));
+            let l = n - c * BLOCK_DIM;
+            seeds
+                .entry(c)
+                .or_insert_with(|| Box::new([1.0; BLOCK_NODES]))[node_offset(l.x, l.y, l.z)] =
+                d.clamp(-1.0, 1.0).min(s);
+        }
+        let mut seeds: Seeds = seeds.into_iter().collect();
+        seeds.sort_unstable_by_key(|(c, _)| c.to_array());
+        seeds
+    }
+}
+
+/// One block's skin potential and where the target has material outside the skin.
+struct Nodes {
+    skin: Box<[f32; BLOCK_NODES]>,
+    wet: Box<[bool; BLOCK_NODES]>,
+}
+
+/// Block `c`'s box, node to node.
+fn block_region(xf: IndexToWorld, c: IVec3) -> Aabb {
+    let corner = |k: i32| xf.apply((c * BLOCK_DIM + IVec3::splat(k)).as_vec3());
+    Aabb {
+        min: corner(0),
+        max: corner(BLOCK_DIM - 1),
     }
 }

@@ -134,7 +134,8 @@ struct Measured {
     outside: Vec<f64>,
     noise: Vec<f64>,
     flicker: Vec<f64>,
-    /// Per frame: particle-scale bumps (degrees, [`look::bumps`]), connected pieces, and
+    /// Per frame: particle-scale bumps (degrees, [`look::bumps`]), pieces holding liquid
+    /// ([`look::pieces`]), and
     /// the median thickness of single-layer sheets in particle radii (NaN without any).
     bumps: Vec<f64>,
     pieces: Vec<f64>,
@@ -196,7 +197,7 @@ fn measure(meshes: &[Mesh], clouds: &[Vec<Vec3>], r: f32, dx: f32) -> anyhow::Re
         })
         .collect();
     let bumps = meshes.par_iter().map(|m| look::bumps(m, r)).collect();
-    let pieces = meshes.iter().map(|m| look::pieces(m) as f64).collect();
+    let pieces = meshes.iter().map(|m| look::pieces(m, r) as f64).collect();
     // A single-layer sheet's particles lie on its mid-surface: twice their depth is its
     // thickness.
     let sheets = clouds

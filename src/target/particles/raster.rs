@@ -514,6 +514,39 @@ impl Target for DensityGrid {
         let norm = grad.length().max(value.abs() / self.h).max(1e-12);
         (value / norm).clamp(-self.h, self.h)
     }
+    /// The density alone against the iso: [`Target::distance`]'s sign without its
+    /// gradient.
+    fn inside(&self, p: Vec3) -> bool {
+        let c = floor_ivec3(p / self.dx) >> 3;
+        match self.block(c) {
+            Some(block) if block.deep => true,
+            None if AROUND.iter().all(|&d| self.block(c + d).is_none()) => false,
+            _ => self.interpolate(p, |b, o| [b.field[0][o]])[0] > self.iso,
+        }
+    }
+    /// A block of a skin on this grid's own nodes and blocks (the particle runs' case)
+    /// reads this grid's block: one lookup, no interpolation.
+    fn block_inside(&self, corner: Vec3, dx: f32, out: &mut [bool; BLOCK_NODES]) {
+        let base = (corner / (DIM as f32 * self.dx)).round();
+        let aligned = (dx - self.dx).abs() <= 1e-6 * self.dx
+            && (corner - base * DIM as f32 * self.dx).abs().max_element() <= 1e-4 * self.dx;
+        if !aligned {
+            for (o, inside) in out.iter_mut().enumerate() {
+                *inside = self.inside(corner + offset_coords(o).as_vec3() * dx);
+            }
+            return;
+        }
+        match self.block(base.as_ivec3()) {
+            Some(block) if block.deep => out.fill(true),
+            Some(block) => {
+                for (inside, &g) in out.iter_mut().zip(block.field[0].iter()) {
+                    *inside = g > self.iso;
+                }
+            }
+            // Between nodes of no block the density is nil.
+            None => out.fill(false),
+        }
+    }
     fn bounds(&self) -> Aabb {
         self.bounds
     }
@@ -699,6 +732,40 @@ mod tests {
             }
         }
         assert!(compared > 1000, "{compared}");
+    }
+
+    #[test]
+    fn block_inside_is_the_sign_of_the_distance() {
+        let (r, l) = (0.05f32, 2.0f32);
+        let (points, _) = ball(r, 0.6);
+        let exact = Density::new(points, 2.0 * l * r, fluid_iso(l)).normalized(l);
+        let grid = DensityGrid::rasterize(&exact, r);
+        let (mut inside, mut outside) = (0, 0);
+        // The grid's own blocks (one read each), blocks off them by whole nodes and off
+        // the nodes (interpolated): deep inside, across the surface, beyond the particles.
+        for corner in [
+            IVec3::new(-8, 0, 0),
+            IVec3::new(0, 0, 0),
+            IVec3::new(8, -16, 0),
+            IVec3::new(-3, 5, -14),
+            IVec3::new(40, 40, 40),
+        ] {
+            for shift in [Vec3::ZERO, Vec3::splat(0.37 * r)] {
+                let corner = corner.as_vec3() * r + shift;
+                let mut fast = [false; BLOCK_NODES];
+                grid.block_inside(corner, r, &mut fast);
+                for (o, &fast) in fast.iter().enumerate() {
+                    let p = corner + offset_coords(o).as_vec3() * r;
+                    assert_eq!(fast, grid.inside(p), "block_inside at {p}");
+                    assert_eq!(fast, grid.distance(p) < 0.0, "inside at {p}");
+                    (inside, outside) = (inside + fast as usize, outside + !fast as usize);
+                }
+            }
+        }
+        assert!(
+            inside > 1000 && outside > 1000,
+            "{inside} in, {outside} out"
+        );
     }
 
     #[test]
