@@ -98,6 +98,26 @@ pub fn not_a_file(path: &Path) -> Option<String> {
     }
 }
 
+/// A regular file's bytes. Opened without waiting (a named pipe would block until
+/// something writes to it), its type checked on the open file (no race with a rename),
+/// then read: a device (`/dev/zero`) or a pipe is refused before any byte is read.
+pub fn read_regular(path: &Path) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    use std::os::unix::fs::OpenOptionsExt;
+    let mut file = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_NONBLOCK)
+        .open(path)?;
+    let meta = file.metadata()?;
+    if !meta.is_file() {
+        let why = not_a_file(path).unwrap_or_else(|| "is not a regular file".into());
+        return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, why));
+    }
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    file.read_to_end(&mut bytes)?;
+    Ok(bytes)
+}
+
 /// Runs `write` on a temporary path, then renames it to `path`. On any failure the
 /// temporary file is removed and `path` is left as it was. A `path` that exists and is
 /// not a regular file — `/dev/null`, a named pipe, a device — is written in place: renamed

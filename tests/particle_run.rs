@@ -58,6 +58,7 @@ fn run_library(into: &Path) {
         }),
         stats_fields: Default::default(),
         reads: vec![input.pattern.clone()],
+        side_outputs: Vec::new(),
         velocities: true,
         usd: None,
         surfaces: None,

@@ -219,6 +219,7 @@ impl OutputArgs {
             progress: (!self.quiet).then(super::progress::shown),
             stats_fields: Default::default(),
             reads: Vec::new(),
+            side_outputs: Vec::new(),
             velocities: self.velocities,
             usd: self.usd_spec()?,
             surfaces: None,

@@ -74,6 +74,9 @@ pub struct OutputSpec {
     pub stats_fields: serde_json::Map<String, serde_json::Value>,
     /// The files the run reads: no output may overwrite one of them.
     pub reads: Vec<FramePattern>,
+    /// Other files the run writes each frame (the particles' density), with the option
+    /// that names them: kept apart from the outputs and the inputs as the outputs are.
+    pub side_outputs: Vec<(&'static str, FramePattern)>,
     /// The surface's velocity, for motion blur, in the outputs that hold one: per vertex
     /// in PLY meshes and USD shots, as the vector grid `v` beside the level set in `--out`
     /// VDBs.
@@ -549,6 +552,7 @@ fn check_apart(spec: &OutputSpec, (first, last): (i64, i64)) -> Result<(), Frame
     let outputs = [("--out", spec.out.as_ref()), ("--mesh", spec.mesh.as_ref())]
         .into_iter()
         .chain([("--render", spec.render.as_ref().map(|r| &r.0))])
+        .chain(spec.side_outputs.iter().map(|(flag, p)| (*flag, Some(p))))
         .filter_map(|(flag, p)| p.map(|p| (flag, paths(p))))
         .chain(spec.stats.iter().map(|p| ("--stats", vec![p.clone()])))
         .chain(spec.usd.iter().flat_map(|u| {

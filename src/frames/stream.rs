@@ -259,6 +259,7 @@ fn sink_outputs(sink: SurfaceSink, velocities: bool, first: i64) -> Result<Outpu
         progress: None,
         stats_fields: Default::default(),
         reads: Vec::new(),
+        side_outputs: Vec::new(),
         velocities,
         usd: None,
         surfaces: Some(sink),

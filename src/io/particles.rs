@@ -60,6 +60,8 @@ pub enum ParticleFault {
     IdsInX,
     #[error("lists no <Piece Source=...> files")]
     NoPieces,
+    #[error("lists piece {0:?} more than once")]
+    PieceTwice(String),
     #[error("piece {}", path.display())]
     Piece {
         path: PathBuf,
@@ -137,7 +139,7 @@ pub fn read(path: &Path) -> Result<Particles, ParticleError> {
         }
         _ => return Err(error(ParticleFault::Extension)),
     };
-    let bytes = std::fs::read(path).map_err(|e| error(e.into()))?;
+    let bytes = super::read_regular(path).map_err(|e| error(e.into()))?;
     parse(&bytes, format).map_err(error)
 }
 
@@ -252,16 +254,24 @@ fn read_vtu(bytes: &[u8]) -> Result<Particles, ParticleFault> {
 /// A parallel `.pvtu`/`.pvtp`: the points of every piece file it lists, in order, with
 /// the attributes every piece has.
 fn read_pieces(path: &Path) -> Result<Particles, ParticleFault> {
-    let bytes = std::fs::read(path)?;
+    let bytes = super::read_regular(path)?;
     let sources = super::vtu::piece_sources(&bytes)?;
     if sources.is_empty() {
         return Err(ParticleFault::NoPieces);
     }
     let folder = path.parent().unwrap_or(Path::new(""));
+    // A piece named twice would be its particles twice, each on top of its copy.
+    let mut named = std::collections::HashSet::new();
+    for source in &sources {
+        let piece = folder.join(source);
+        if !named.insert(std::fs::canonicalize(&piece).unwrap_or(piece)) {
+            return Err(ParticleFault::PieceTwice(source.clone()));
+        }
+    }
     let mut all = Particles::default();
     for (k, source) in sources.iter().enumerate() {
         let piece = folder.join(source);
-        let part = std::fs::read(&piece)
+        let part = super::read_regular(&piece)
             .map_err(ParticleFault::from)
             .and_then(|b| read_vtu(&b))
             .and_then(check)

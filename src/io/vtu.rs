@@ -686,6 +686,17 @@ fn inflate(
             out.extend_from_slice(&block);
         }
         Compressor::Lzma => {
+            // lzma-rs holds a whole xz block in memory before writing any of it: the
+            // chunks' stated sizes are summed first, so that a bomb stops before it
+            // inflates.
+            let unpacked = xz_unpacked_size(packed, expected).map_err(|e| {
+                VtuError::Inflate(std::io::Error::other(format!("LZMA block: {e}")))
+            })?;
+            if unpacked > expected {
+                return Err(VtuError::Inflate(std::io::Error::other(
+                    "the block inflates past its stated size",
+                )));
+            }
             let mut block = Bounded {
                 out,
                 room: expected,
@@ -695,6 +706,60 @@ fn inflate(
         }
     }
     Ok(())
+}
+
+/// The bytes an xz stream's LZMA2 chunks say they hold, read from their headers without
+/// decompressing; at most a little past `limit` (the walk stops once the sum passes it).
+/// The xz layout: a 12-byte stream header, then blocks (a header of 4·(n+1) bytes, LZMA2
+/// chunks up to a 0 byte, padding to 4 bytes, the check), then the index.
+fn xz_unpacked_size(xz: &[u8], limit: u64) -> Result<u64, &'static str> {
+    const MAGIC: [u8; 6] = [0xFD, b'7', b'z', b'X', b'Z', 0];
+    let truncated = "truncated";
+    if xz.len() < 12 || xz[..6] != MAGIC {
+        return Err("not an xz stream");
+    }
+    let check = match xz[7] & 0x0F {
+        0 => 0,
+        t => 4usize << ((t - 1) / 3),
+    };
+    let (mut at, mut total) = (12usize, 0u64);
+    let byte = |at: usize| xz.get(at).copied().ok_or(truncated);
+    let pair = |at: usize| Ok::<u64, &str>(u64::from(byte(at)?) << 8 | u64::from(byte(at + 1)?));
+    loop {
+        let start = at;
+        let header = byte(at)?;
+        if header == 0 {
+            // The index: every block read.
+            return Ok(total);
+        }
+        at += 4 * (usize::from(header) + 1);
+        loop {
+            let control = byte(at)?;
+            at += 1;
+            let (unpacked, packed) = match control {
+                0 => break,
+                // Stored chunks, with or without a dictionary reset.
+                1 | 2 => {
+                    let n = pair(at)? + 1;
+                    at += 2;
+                    (n, n)
+                }
+                0x80..=0xFF => {
+                    let unpacked = (u64::from(control & 0x1F) << 16 | pair(at)?) + 1;
+                    let packed = pair(at + 2)? + 1;
+                    at += 4 + usize::from(control >= 0xC0);
+                    (unpacked, packed)
+                }
+                _ => return Err("not an LZMA2 chunk"),
+            };
+            total += unpacked;
+            if total > limit {
+                return Ok(total);
+            }
+            at = at.checked_add(packed as usize).ok_or(truncated)?;
+        }
+        at += (4 - (at - start) % 4) % 4 + check;
+    }
 }
 
 /// A writer that takes at most `room` more bytes: a block that inflates past its stated

@@ -35,6 +35,15 @@ pub fn kernel(q: f32) -> f32 {
 /// spacings (about 33 neighbours), as splashsurf's `-l 2`.
 pub const DEFAULT_SMOOTHING_LENGTH: f32 = 2.0;
 
+/// How many times a fluid's neighbourhood at rest a particle's may hold before its
+/// own density is summed over cubes of particles instead of pairs
+/// ([`Density::normalized`]): never in a simulation, whose densities stay within a few
+/// percent of rest.
+const CROWD_OVER_REST: f32 = 16.0;
+
+/// The cubes a crowded neighbourhood's particles are gathered in, per support.
+const CROWD_CUBES: f32 = 8.0;
+
 /// The support of the kernel that averages the velocities of particles matched from frame
 /// to frame, in particle radii ([`Density::velocity_within`]): the skin lies about a radius
 /// past the outer particles, and over this support a node there sees the outer layer
@@ -256,21 +265,81 @@ impl Density {
             rest_density(smoothing_length),
             self.droplet_volume(smoothing_length),
         );
-        // Each sum in the same order as `density`'s.
-        self.volumes = self.per_particle(|i, runs| {
-            let p = self.particles[i].0;
-            let mut g = 0.0f32;
-            for run in runs {
-                for &(q, inv_h2) in &self.particles[run.clone()] {
-                    let s = 1.0 - (p - q).length_squared() * inv_h2;
-                    if s > 0.0 {
-                        g += s * s * s;
+        let volume = |g: f32| (rest / g.max(1e-6)).min(most);
+        // A fluid's neighbourhood (27 cells of the support) holds 27·l³ particles at
+        // rest; many times that is particles piled on each other (a copied piece, a
+        // broken export), whose pairs would cost their number squared.
+        let crowd = CROWD_OVER_REST * 27.0 * smoothing_length.powi(3);
+        self.volumes = self.per_cell(|cell, runs| {
+            if runs.iter().map(ExactSizeIterator::len).sum::<usize>() as f32 > crowd {
+                return self
+                    .crowded_sums(cell, runs)
+                    .into_iter()
+                    .map(volume)
+                    .collect();
+            }
+            // Each sum in the same order as `density`'s.
+            cell.map(|i| {
+                let p = self.particles[i].0;
+                let mut g = 0.0f32;
+                for run in runs {
+                    for &(q, inv_h2) in &self.particles[run.clone()] {
+                        let s = 1.0 - (p - q).length_squared() * inv_h2;
+                        if s > 0.0 {
+                            g += s * s * s;
+                        }
                     }
                 }
-            }
-            (rest / g.max(1e-6)).min(most)
+                volume(g)
+            })
+            .collect()
         });
         self
+    }
+
+    /// Each own-density sum of the particles `cell` in a crowded neighbourhood `runs`,
+    /// with the particles gathered in cubes of an eighth of the support (those of one
+    /// support, at their centroid, counted as many as they are) on both sides of the sum:
+    /// at most 8³ × 24³ terms a cell, however many particles; exact where they coincide.
+    fn crowded_sums(&self, cell: Range<usize>, runs: &[Range<usize>]) -> Vec<f32> {
+        let step = self.h / CROWD_CUBES;
+        type Cubes = HashMap<(IVec3, u32), (Vec3, f32)>;
+        let gather = |range: &mut dyn Iterator<Item = usize>| -> Cubes {
+            let mut cubes: Cubes = HashMap::new();
+            for i in range {
+                let (p, inv_h2) = self.particles[i];
+                let key = ((p / step).floor().as_ivec3(), inv_h2.to_bits());
+                let (sum, n) = cubes.entry(key).or_insert((Vec3::ZERO, 0.0));
+                *sum += p;
+                *n += 1.0;
+            }
+            cubes
+        };
+        let around = gather(&mut runs.iter().flat_map(Range::clone));
+        let own = gather(&mut cell.clone());
+        let sums: HashMap<(IVec3, u32), f32> = own
+            .iter()
+            .map(|(&key, &(sum, n))| {
+                let p = sum / n;
+                let g = around
+                    .values()
+                    .map(|&(sum, m)| {
+                        let s = 1.0 - (p - sum / m).length_squared() * f32::from_bits(key.1);
+                        if s > 0.0 {
+                            m * s * s * s
+                        } else {
+                            0.0
+                        }
+                    })
+                    .sum();
+                (key, g)
+            })
+            .collect();
+        cell.map(|i| {
+            let (p, inv_h2) = self.particles[i];
+            sums[&((p / step).floor().as_ivec3(), inv_h2.to_bits())]
+        })
+        .collect()
     }
 
     /// Averages the velocity over the particles within `radii` particle radii (at most
@@ -294,11 +363,14 @@ impl Density {
         self.iso / kernel(radius / (2.0 * smoothing_length))
     }
 
-    /// `f(i, runs)` for every particle i, in `particles`' order, given the runs of the
-    /// (up to 27) occupied cells around its cell in [`AROUND`]'s order: computed cell by
-    /// cell in parallel, so that the neighbour cells are looked up once per cell, not once
-    /// per particle.
-    fn per_particle<T: Send>(&self, f: impl Fn(usize, &[Range<usize>]) -> T + Sync) -> Vec<T> {
+    /// `f(cell, runs)` for every cell, its particles `cell` (a range of `particles`) given
+    /// the runs of the (up to 27) occupied cells around it in [`AROUND`]'s order, one
+    /// value a particle, in `particles`' order: computed cell by cell in parallel, so that
+    /// the neighbour cells are looked up once per cell, not once per particle.
+    fn per_cell<T: Send>(
+        &self,
+        f: impl Fn(Range<usize>, &[Range<usize>]) -> Vec<T> + Sync,
+    ) -> Vec<T> {
         let mut cells: Vec<(IVec3, u32, u32)> =
             self.cells.iter().map(|(&c, &(a, b))| (c, a, b)).collect();
         // By run, so that the results come out in `particles`' order.
@@ -313,9 +385,7 @@ impl Density {
                         Some(a as usize..b as usize)
                     })
                     .collect();
-                (start as usize..end as usize)
-                    .map(|i| f(i, &runs))
-                    .collect::<Vec<T>>()
+                f(start as usize..end as usize, &runs)
             })
             .collect()
     }
