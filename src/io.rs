@@ -59,7 +59,29 @@ pub fn error_chain(e: &dyn std::error::Error) -> String {
         }
         source = cause.source();
     }
-    text
+    printable(&text, ERROR_CHARS)
+}
+
+/// The most characters [`error_chain`] gives one error: paths and a reason fit; a file's
+/// bytes echoed by a message do not.
+const ERROR_CHARS: usize = 600;
+
+/// `text` on one printable line of at most `most` characters: control characters (a
+/// newline, a NUL from a binary file) escaped as Rust writes them, the rest cut with `…`.
+pub fn printable(text: &str, most: usize) -> String {
+    let mut out = String::new();
+    for (n, c) in text.chars().enumerate() {
+        if n == most {
+            out.push('…');
+            break;
+        }
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
 }
 
 /// The temporary name a file is written under before being renamed to `path`: hidden,
@@ -261,6 +283,13 @@ mod tests {
 
     /// A named pipe stays a pipe, and its reader gets the bytes (as /dev/null must stay
     /// a device).
+    #[test]
+    fn printable_escapes_control_characters_and_cuts_long_text() {
+        assert_eq!(printable("a\nb\0c\u{7f}é", 100), "a\\nb\\u{0}c\\u{7f}é");
+        assert_eq!(printable("abcdef", 3), "abc…");
+        assert_eq!(printable("abc", 3), "abc");
+    }
+
     #[test]
     fn special_files_are_written_in_place_not_replaced() {
         use std::os::unix::fs::FileTypeExt;

@@ -186,3 +186,68 @@ fn outputs_that_would_overwrite_each_other_are_refused_before_frame_one() {
         "nothing written"
     );
 }
+
+#[test]
+fn messages_are_one_printable_line_whatever_the_file_or_the_argument_holds() {
+    let dir = common::scratch();
+    let vtk = std::fs::read(common::data("sph/vtk/ParticleData_Fluid_2.vtk")).unwrap();
+    let edit = |from: &[u8], to: &[u8]| -> Vec<u8> {
+        let at = vtk.windows(from.len()).position(|w| w == from).unwrap();
+        [&vtk[..at], to, &vtk[at + from.len()..]].concat()
+    };
+    // A SCALARS of no component: its binary data read as the next keyword echoed 1 675
+    // characters with NULs.
+    let none = dir.path().join("none.vtk");
+    std::fs::write(
+        &none,
+        edit(b"SCALARS id unsigned_int 1", b"SCALARS id unsigned_int 0"),
+    )
+    .unwrap();
+    refused(
+        &particles(&none, dir.path(), &[]),
+        1,
+        "SCALARS id: bad component count",
+    );
+    // Binary bytes where a keyword belongs.
+    let junk = dir.path().join("junk.vtk");
+    std::fs::write(&junk, edit(b"POINT_DATA 324", b"\x01\x02\x00\xff\xfe 324")).unwrap();
+    refused(
+        &particles(&junk, dir.path(), &[]),
+        1,
+        "binary data where a keyword",
+    );
+    // An attribute named with a newline, echoed escaped.
+    let input = common::data("sph/vtk/ParticleData_Fluid_2.vtk");
+    let mesh = dir.path().join("m.####.ply");
+    let out = common::activeskin_bounded(&[
+        "particles",
+        "--particles",
+        &input,
+        "--radius",
+        "0.01",
+        "--frames",
+        "1-1",
+        "-q",
+        "--mesh",
+        mesh.to_str().unwrap(),
+        "--attribute",
+        "age\nrm -rf",
+    ]);
+    refused(&out, 1, "no particle attribute 'age\\nrm -rf'");
+}
+
+#[test]
+fn a_velocity_without_a_row_per_point_is_an_error_not_dropped() {
+    let dir = common::scratch();
+    let vtk = dir.path().join("short.vtk");
+    std::fs::write(
+        &vtk,
+        "# vtk DataFile Version 3.0\nshort\nASCII\nDATASET POLYDATA\nPOINTS 3 float\n0 0 0 0.02 0 0 0.04 0 0\nPOINT_DATA 3\nFIELD FieldData 1\nvelocity 3 2 float\n1 0 0 1 0 0\n",
+    )
+    .unwrap();
+    refused(
+        &particles(&vtk, dir.path(), &[]),
+        1,
+        "array 'velocity' has 2 rows for 3 points",
+    );
+}

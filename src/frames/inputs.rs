@@ -393,8 +393,9 @@ impl ParticleInput {
                 None => {
                     let listed: Vec<&str> = held.iter().map(|a| a.name.as_str()).collect();
                     return Err(FrameError::Data(format!(
-                        "{}: no particle attribute '{name}' ({})",
+                        "{}: no particle attribute '{}' ({})",
                         path.display(),
+                        crate::io::printable(name, 80),
                         match listed.is_empty() {
                             true =>
                                 "the file has none besides positions, radii, velocities and ids"

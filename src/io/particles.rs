@@ -62,6 +62,12 @@ pub enum ParticleFault {
     NoPieces,
     #[error("lists piece {0:?} more than once")]
     PieceTwice(String),
+    #[error("array '{name}' has {rows} rows for {points} points")]
+    Rows {
+        name: String,
+        rows: usize,
+        points: usize,
+    },
     #[error("piece {}", path.display())]
     Piece {
         path: PathBuf,
@@ -169,7 +175,7 @@ fn read_bgeo(bytes: &[u8]) -> Result<Particles, ParticleFault> {
     let n = points.positions.len();
     let column =
         |names: &[&str], components: usize| column(&points.attributes, n, names, components);
-    let ids: Option<Vec<i64>> = column(&["id"], 1).map(|v| v.iter().map(|&i| i as i64).collect());
+    let ids: Option<Vec<i64>> = column(&["id"], 1)?.map(|v| v.iter().map(|&i| i as i64).collect());
     // pysplishsplash 2.19's partio export writes each particle's id into the bits of its x
     // (y, z and the attributes are right): x cannot be had back.
     if let Some(ids) = &ids {
@@ -188,8 +194,8 @@ fn read_bgeo(bytes: &[u8]) -> Result<Particles, ParticleFault> {
             .iter()
             .map(|p| Vec3::from_array(*p))
             .collect(),
-        radii: column(&["pscale", "radius"], 1).map(|v| v.iter().map(|&r| r as f32).collect()),
-        velocities: column(&["v", "velocity", "vel"], 3).map(vectors),
+        radii: column(&["pscale", "radius"], 1)?.map(|v| v.iter().map(|&r| r as f32).collect()),
+        velocities: column(&["v", "velocity", "vel"], 3)?.map(vectors),
         ids,
         attributes: attributes(
             &points.attributes,
@@ -214,17 +220,23 @@ fn attributes(arrays: &[super::PointArray], n: usize, known: &[&str]) -> Vec<Att
         .collect()
 }
 
-/// The values of the array called one of `names` with `components` components, when it has
-/// a row for each of the `n` points.
+/// The values of the array called one of `names` with `components` components; an error
+/// when it has not a row for each of the `n` points (a velocity silently dropped would
+/// change the motion the skin follows).
 fn column<'a>(
     arrays: &'a [super::PointArray],
     n: usize,
     names: &[&str],
     components: usize,
-) -> Option<&'a [f64]> {
-    super::find_array(arrays, names, components)
-        .filter(|a| a.values.len() == n * components)
-        .map(|a| a.values.as_slice())
+) -> Result<Option<&'a [f64]>, ParticleFault> {
+    match super::find_array(arrays, names, components) {
+        Some(a) if a.values.len() != n * components => Err(ParticleFault::Rows {
+            name: a.name.clone(),
+            rows: a.values.len() / components,
+            points: n,
+        }),
+        found => Ok(found.map(|a| a.values.as_slice())),
+    }
 }
 
 /// Rows of three as vectors.
@@ -239,7 +251,7 @@ fn vectors(values: &[f64]) -> Vec<Vec3> {
 /// (SPlisHSPlasH `velocity`, DualSPHysics `Vel`), identity (`id`, `Idp`) and radius.
 fn read_vtk(bytes: &[u8]) -> Result<Particles, ParticleFault> {
     let points = super::vtk::parse(bytes)?;
-    Ok(from_arrays(&points.positions, &points.arrays))
+    from_arrays(&points.positions, &points.arrays)
 }
 
 /// A VTK XML file's points (every piece), with the point data named as in legacy VTK.
@@ -248,7 +260,7 @@ fn read_vtu(bytes: &[u8]) -> Result<Particles, ParticleFault> {
         .saturating_mul(INFLATE_LIMIT)
         .max(1 << 20);
     let points = super::vtu::parse(bytes, limit)?;
-    Ok(from_arrays(&points.positions, &points.arrays))
+    from_arrays(&points.positions, &points.arrays)
 }
 
 /// A parallel `.pvtu`/`.pvtp`: the points of every piece file it lists, in order, with
@@ -310,17 +322,20 @@ fn read_pieces(path: &Path) -> Result<Particles, ParticleFault> {
 
 /// Particles from positions and the point-data arrays simulators name velocity
 /// (SPlisHSPlasH `velocity`, DualSPHysics `Vel`), identity (`id`, `Idp`) and radius.
-fn from_arrays(positions: &[[f64; 3]], arrays: &[super::PointArray]) -> Particles {
+fn from_arrays(
+    positions: &[[f64; 3]],
+    arrays: &[super::PointArray],
+) -> Result<Particles, ParticleFault> {
     let n = positions.len();
     let column = |names: &[&str], components: usize| column(arrays, n, names, components);
-    Particles {
+    Ok(Particles {
         positions: positions
             .iter()
             .map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32))
             .collect(),
-        radii: column(&["radius", "pscale"], 1).map(|v| v.iter().map(|&r| r as f32).collect()),
-        velocities: column(&["velocity", "velocities", "vel", "v"], 3).map(vectors),
-        ids: column(&["id", "idp", "ids"], 1).map(|v| v.iter().map(|&i| i as i64).collect()),
+        radii: column(&["radius", "pscale"], 1)?.map(|v| v.iter().map(|&r| r as f32).collect()),
+        velocities: column(&["velocity", "velocities", "vel", "v"], 3)?.map(vectors),
+        ids: column(&["id", "idp", "ids"], 1)?.map(|v| v.iter().map(|&i| i as i64).collect()),
         attributes: attributes(
             arrays,
             n,
@@ -336,7 +351,7 @@ fn from_arrays(positions: &[[f64; 3]], arrays: &[super::PointArray]) -> Particle
                 "ids",
             ],
         ),
-    }
+    })
 }
 
 fn check(particles: Particles) -> Result<Particles, ParticleFault> {

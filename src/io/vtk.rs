@@ -145,9 +145,11 @@ pub fn parse(bytes: &[u8]) -> Result<VtkPoints, VtkError> {
                     "SCALARS" => {
                         let kind = value_type(words.get(2).copied(), &r)?;
                         let components = match words.get(3) {
-                            Some(c) => c.parse().map_err(|_| {
-                                r.syntax(format!("SCALARS {name}: bad component count"))
-                            })?,
+                            Some(c) => {
+                                c.parse().ok().filter(|&n: &usize| n > 0).ok_or_else(|| {
+                                    r.syntax(format!("SCALARS {name}: bad component count"))
+                                })?
+                            }
                             None => 1,
                         };
                         if r.peek_keyword()?.as_deref() == Some("LOOKUP_TABLE") {
@@ -182,7 +184,13 @@ pub fn parse(bytes: &[u8]) -> Result<VtkPoints, VtkError> {
             }
             // VTK 9's information keys: lines up to a blank one.
             "METADATA" => r.skip_metadata()?,
-            _ => return Err(r.syntax(format!("unexpected '{}'", words[0]))),
+            _ if !words[0].chars().all(|c| c.is_ascii_graphic()) => {
+                return Err(r.syntax("binary data where a keyword was expected".into()))
+            }
+            _ => {
+                let word = crate::io::printable(words[0], 40);
+                return Err(r.syntax(format!("unexpected '{word}'")));
+            }
         }
     }
     if !have_points {

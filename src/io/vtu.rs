@@ -675,8 +675,10 @@ fn inflate(
     match how {
         Compressor::None => out.extend_from_slice(packed),
         Compressor::Zlib => {
+            // One byte past the stated size: a block longer than it says is an error
+            // (the caller compares the sizes), not cut silently.
             flate2::read::ZlibDecoder::new(packed)
-                .take(expected)
+                .take(expected + 1)
                 .read_to_end(out)
                 .map_err(VtuError::Inflate)?;
         }
