@@ -42,6 +42,20 @@ fn default_bytes() -> u64 {
     total.min(address_space) / 4 * 3
 }
 
+/// What each particle handed over costs a frame at least, in bytes: its copies (position,
+/// velocity, id, radius), the density's sorted table and its volume. A frame of more
+/// particles than the budget holds at this rate is refused before it is copied.
+pub const BYTES_PER_PARTICLE: u64 = 128;
+
+/// `Err(bytes needed)` when `n` particles are over the budget at [`BYTES_PER_PARTICLE`].
+pub fn particles_fit(n: usize) -> Result<(), u64> {
+    let needed = (n as u64).saturating_mul(BYTES_PER_PARTICLE);
+    match needed <= bytes() {
+        true => Ok(()),
+        false => Err(needed),
+    }
+}
+
 /// `bytes` for messages, in kB, MB, GB or TB.
 pub fn size(bytes: u64) -> String {
     let b = bytes as f64;

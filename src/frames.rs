@@ -94,6 +94,10 @@ pub enum FrameError {
     /// A request that cannot be met whatever the files hold (a command-line mistake).
     #[error("{0}")]
     Usage(String),
+    /// Work that would take more memory than the budget ([`crate::budget`]), refused
+    /// before allocating it.
+    #[error("{0}")]
+    OverBudget(String),
 }
 
 /// The frame rate when none is given: film's.

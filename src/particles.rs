@@ -33,7 +33,50 @@ pub struct Attribute {
     pub values: Vec<f32>,
 }
 
+/// A particle no frame can hold, as [`Particles::check`] finds it: the field and the
+/// particle's index.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum InvalidParticle {
+    #[error("particle {0} has a NaN or infinite coordinate")]
+    Position(usize),
+    #[error("particle {0} has a velocity that is not finite")]
+    Velocity(usize),
+    #[error("particle {0} has a radius that is not a positive number")]
+    Radius(usize),
+}
+
+impl InvalidParticle {
+    /// The field it is in: `positions`, `velocities` or `radii`.
+    pub fn field(&self) -> &'static str {
+        match self {
+            InvalidParticle::Position(_) => "positions",
+            InvalidParticle::Velocity(_) => "velocities",
+            InvalidParticle::Radius(_) => "radii",
+        }
+    }
+}
+
 impl Particles {
+    /// Every position and velocity finite, every radius finite and positive: what a
+    /// frame must hold, whether read from a file or handed over (the command and the
+    /// Python API refuse alike).
+    pub fn check(&self) -> Result<(), InvalidParticle> {
+        if let Some(i) = self.positions.iter().position(|p| !p.is_finite()) {
+            return Err(InvalidParticle::Position(i));
+        }
+        if let Some(v) = &self.velocities {
+            if let Some(i) = v.iter().position(|v| !v.is_finite()) {
+                return Err(InvalidParticle::Velocity(i));
+            }
+        }
+        if let Some(radii) = &self.radii {
+            if let Some(i) = radii.iter().position(|r| !(r.is_finite() && *r > 0.0)) {
+                return Err(InvalidParticle::Radius(i));
+            }
+        }
+        Ok(())
+    }
+
     /// Whether every particle lies within `reach` of the origin on each axis.
     pub fn within(&self, reach: f32) -> bool {
         self.positions

@@ -22,7 +22,9 @@ from ._activeskin import (
     Mesh,
     ParticleSkin,
     __version__,
+    memory_budget,
     read_particles,
+    set_memory_budget,
 )
 
 if HAS_VDB:
@@ -34,8 +36,10 @@ __all__ = [
     "Mesh",
     "ParticleSkin",
     "__version__",
+    "memory_budget",
     "particles_sequence",
     "read_particles",
+    "set_memory_budget",
     "skin_for_sequence",
     "skin_sequence",
 ] + (["measure_velocity"] if HAS_VDB else [])

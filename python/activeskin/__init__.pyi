@@ -169,6 +169,15 @@ class LevelSetSkin:
         """Writes the last frame's skin as a VDB level set (grid `surface`, and `v` with
         velocity_grid), as the command's --out does. Needs HAS_VDB."""
 
+def set_memory_budget(gb: float) -> None:
+    """Sets the most memory a frame may take, in GB, as the command's --max-memory does
+    (0 for the default: three quarters of the machine's memory). Work that would take
+    more is refused with MemoryError before it is allocated, a frame of more particles
+    than the budget holds at 128 bytes a particle before its arrays are copied."""
+
+def memory_budget() -> float:
+    """The most memory a frame may take, in GB (set_memory_budget)."""
+
 def read_particles(path: str | PathLike[str]) -> dict[str, object]:
     """One particle file as the command reads it (PLY, VTK, VTU, BGEO, JSON, CSV, XYZ):
     positions (n, 3) float32; velocities (n, 3), ids (n,) int64 and radii (n,) or None;

@@ -17,6 +17,7 @@ use activeskin::mesh::Mesh as SkinMesh;
 use activeskin::particles::{Attribute, Particles};
 use activeskin::render::Up;
 use activeskin::skin::Physics;
+use activeskin::skin::SkinError;
 use activeskin::target::fluid_iso;
 use activeskin::volume::{GridClass, GridData, VectorGrid};
 use glam::Vec3;
@@ -25,15 +26,84 @@ use numpy::{
     AllowTypeChange, IntoPyArray, PyArray2, PyArrayLike1, PyArrayLike2, PyArrayLikeDyn,
     PyArrayMethods, PyUntypedArrayMethods,
 };
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyMemoryError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 fn value_error(e: FrameError) -> PyErr {
-    PyValueError::new_err(e.to_string())
+    match &e {
+        // Refused before allocating: Python's own word for it, which a caller can catch.
+        FrameError::OverBudget(_) | FrameError::Skin(SkinError::OverBudget { .. }) => {
+            PyMemoryError::new_err(e.to_string())
+        }
+        _ => PyValueError::new_err(e.to_string()),
+    }
 }
 
-/// `n × 3` floats as points, checked.
+/// What `object` is, for a message: its shape when it has one, else its type.
+fn described(object: &Bound<'_, PyAny>) -> String {
+    match object.getattr("shape") {
+        Ok(shape) => format!("shape {shape}"),
+        Err(_) => match object.get_type().name() {
+            Ok(name) => format!("a {name}"),
+            Err(_) => "something else".into(),
+        },
+    }
+}
+
+/// `object` as a 2-D array of float32 (converted once, any strides), or a `ValueError`
+/// naming the argument.
+fn array2<'py>(
+    name: &str,
+    object: &Bound<'py, PyAny>,
+) -> PyResult<PyArrayLike2<'py, f32, AllowTypeChange>> {
+    object.extract().map_err(|_| {
+        PyValueError::new_err(format!(
+            "{name} must be an (n, 3) array of numbers, got {}",
+            described(object)
+        ))
+    })
+}
+
+/// `object` as a 1-D array of `n` values, copied, or a `ValueError` naming the argument.
+fn array1<T: numpy::Element + Copy>(
+    name: &str,
+    object: &Bound<'_, PyAny>,
+    n: usize,
+) -> PyResult<Vec<T>>
+where
+    for<'a, 'py> PyArrayLike1<'py, T, AllowTypeChange>: FromPyObject<'a, 'py>,
+{
+    let wrong = || {
+        PyValueError::new_err(format!(
+            "{name} must be an ({n},) array of numbers, one per particle, got {}",
+            described(object)
+        ))
+    };
+    let array: PyArrayLike1<T, AllowTypeChange> = object.extract().map_err(|_| wrong())?;
+    let view = array.as_array();
+    // The length first: a broadcast view of billions of rows is never copied.
+    if view.len() != n {
+        return Err(wrong());
+    }
+    Ok(view.to_vec())
+}
+
+/// `n` particles within the memory budget, before their arrays are copied: a
+/// `MemoryError` otherwise (a copy past the machine's memory would abort the process,
+/// and the artist's Blender with it).
+fn fits(name: &str, n: usize) -> PyResult<()> {
+    use activeskin::budget;
+    budget::particles_fit(n).map_err(|needed| {
+        PyMemoryError::new_err(format!(
+            "{name}: {n} particles would take at least {}, over the memory budget of {}: activeskin.set_memory_budget(gb) allows more",
+            budget::size(needed),
+            budget::size(budget::bytes())
+        ))
+    })
+}
+
+/// `n × 3` floats as points, checked: shape, then the memory budget, then copied.
 fn points(name: &str, array: &PyArrayLike2<f32, AllowTypeChange>) -> PyResult<Vec<Vec3>> {
     let view = array.as_array();
     if view.ncols() != 3 {
@@ -42,6 +112,7 @@ fn points(name: &str, array: &PyArrayLike2<f32, AllowTypeChange>) -> PyResult<Ve
             view.shape()
         )));
     }
+    fits(name, view.nrows())?;
     Ok(view
         .rows()
         .into_iter()
@@ -86,16 +157,27 @@ fn attributes_dict(py: Python<'_>, attributes: Vec<Attribute>) -> PyResult<Bound
 
 /// An attribute's array, `(n,)` or `(n, c)` of any number type: its components and its
 /// values as floats, row by row.
-fn attribute_values(array: &Bound<'_, PyAny>) -> PyResult<(usize, Vec<f32>)> {
+/// An attribute's `(n,)` or `(n, 3)` values and its components, checked before they are
+/// copied.
+fn attribute_values(name: &str, array: &Bound<'_, PyAny>, n: usize) -> PyResult<(usize, Vec<f32>)> {
+    let wrong = || {
+        PyValueError::new_err(format!(
+            "attribute '{name}' must be an ({n},) or ({n}, 3) array, got {}",
+            described(array)
+        ))
+    };
     match array.extract::<PyArrayLike2<f32, AllowTypeChange>>() {
         Ok(two) => {
             let view = two.as_array();
-            Ok((view.ncols(), view.iter().copied().collect()))
+            if view.nrows() != n || view.ncols() != 3 {
+                return Err(wrong());
+            }
+            Ok((3, view.iter().copied().collect()))
         }
-        Err(_) => {
-            let one: PyArrayLike1<f32, AllowTypeChange> = array.extract()?;
-            Ok((1, one.as_array().to_vec()))
-        }
+        Err(_) => Ok((
+            1,
+            array1(&format!("attribute '{name}'"), array, n).map_err(|_| wrong())?,
+        )),
     }
 }
 
@@ -151,9 +233,10 @@ impl Mesh {
         let velocities = self.velocities.as_ref().map(read);
         let mut attributes = Vec::new();
         for (name, array) in self.attributes.bind(py).iter() {
-            let (components, values) = attribute_values(&array)?;
+            let name: String = name.extract()?;
+            let (components, values) = attribute_values(&name, &array, mesh.positions.len())?;
             attributes.push(Attribute {
-                name: name.extract()?,
+                name,
                 components,
                 values,
             });
@@ -438,14 +521,27 @@ impl ParticleSkin {
             ..defaults
         };
         let reference = match volume_reference {
-            Some((frame, positions, radii)) => Some((
-                frame,
-                Particles {
-                    positions: points("volume_reference positions", &positions)?,
-                    radii: radii.map(|r| r.as_array().to_vec()),
+            Some((frame, positions, radii)) => {
+                let positions = points("volume_reference positions", &positions)?;
+                let n = positions.len();
+                let radii = match radii {
+                    Some(r) if r.as_array().len() != n => {
+                        return Err(PyValueError::new_err(format!(
+                            "volume_reference radii must have one per particle ({n})"
+                        )))
+                    }
+                    r => r.map(|r| r.as_array().to_vec()),
+                };
+                let particles = Particles {
+                    positions,
+                    radii,
                     ..Particles::default()
-                },
-            )),
+                };
+                particles.check().map_err(|e| {
+                    PyValueError::new_err(format!("volume_reference {}: {e}", e.field()))
+                })?;
+                Some((frame, particles))
+            }
             None => None,
         };
         let dx = particles.dx;
@@ -485,43 +581,36 @@ impl ParticleSkin {
     fn advance(
         &mut self,
         py: Python<'_>,
-        positions: PyArrayLike2<f32, AllowTypeChange>,
-        velocities: Option<PyArrayLike2<f32, AllowTypeChange>>,
-        ids: Option<PyArrayLike1<i64, AllowTypeChange>>,
+        positions: &Bound<'_, PyAny>,
+        velocities: Option<&Bound<'_, PyAny>>,
+        ids: Option<&Bound<'_, PyAny>>,
         attributes: Option<Bound<'_, PyDict>>,
-        radii: Option<PyArrayLike1<f32, AllowTypeChange>>,
+        radii: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Py<Mesh>> {
         self.frames.check()?;
-        let positions = points("positions", &positions)?;
+        let positions = points("positions", &array2("positions", positions)?)?;
         let n = positions.len();
-        let velocities = velocities.map(|v| points("velocities", &v)).transpose()?;
-        if velocities.as_ref().is_some_and(|v| v.len() != n) {
-            return Err(PyValueError::new_err(format!(
-                "velocities must have one row per particle ({n})"
-            )));
-        }
-        let ids = ids.map(|i| i.as_array().to_vec());
-        if ids.as_ref().is_some_and(|i| i.len() != n) {
-            return Err(PyValueError::new_err(format!(
-                "ids must have one per particle ({n})"
-            )));
-        }
-        let radii = radii.map(|r| r.as_array().to_vec());
-        if radii.as_ref().is_some_and(|r| r.len() != n) {
-            return Err(PyValueError::new_err(format!(
-                "radii must have one per particle ({n})"
-            )));
-        }
+        let velocities = match velocities {
+            Some(v) => {
+                let v = array2("velocities", v)?;
+                if v.as_array().nrows() != n {
+                    return Err(PyValueError::new_err(format!(
+                        "velocities must have one row per particle ({n})"
+                    )));
+                }
+                Some(points("velocities", &v)?)
+            }
+            None => None,
+        };
+        let ids = ids.map(|i| array1::<i64>("ids", i, n)).transpose()?;
+        let radii = radii.map(|r| array1::<f32>("radii", r, n)).transpose()?;
         let mut carried = Vec::new();
         if let Some(dict) = attributes {
             for (name, array) in dict.iter() {
-                let name: String = name.extract()?;
-                let (components, values) = attribute_values(&array)?;
-                if !(components == 1 || components == 3) || values.len() != components * n {
-                    return Err(PyValueError::new_err(format!(
-                        "attribute '{name}' must be an ({n},) or ({n}, 3) array"
-                    )));
-                }
+                let name: String = name.extract().map_err(|_| {
+                    PyValueError::new_err("attributes must be a dict of names (str) to arrays")
+                })?;
+                let (components, values) = attribute_values(&name, &array, n)?;
                 carried.push(Attribute {
                     name,
                     components,
@@ -536,6 +625,10 @@ impl ParticleSkin {
             radii,
             attributes: carried,
         };
+        // As the command checks a file's particles, with the argument named.
+        particles
+            .check()
+            .map_err(|e| PyValueError::new_err(format!("{}: {e}", e.field())))?;
         self.frames.advance(py, particles)
     }
 
@@ -919,9 +1012,31 @@ fn read_particles(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Bound<'_
     Ok(out)
 }
 
+/// Sets the most memory a frame may take, in GB, as the command's `--max-memory` does
+/// (0 for the default: three quarters of the machine's memory or of `ulimit -v`). Work
+/// that would take more is refused with a `MemoryError` before it is allocated.
+#[pyfunction]
+fn set_memory_budget(gb: f64) -> PyResult<()> {
+    if !(gb.is_finite() && gb >= 0.0) {
+        return Err(PyValueError::new_err(format!(
+            "the memory budget must be a non-negative number of GB, got {gb}"
+        )));
+    }
+    activeskin::budget::set_bytes((gb * 1e9) as u64);
+    Ok(())
+}
+
+/// The most memory a frame may take, in GB ([`set_memory_budget`]).
+#[pyfunction]
+fn memory_budget() -> f64 {
+    activeskin::budget::bytes() as f64 / 1e9
+}
+
 #[pymodule]
 fn _activeskin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_particles, m)?)?;
+    m.add_function(wrap_pyfunction!(set_memory_budget, m)?)?;
+    m.add_function(wrap_pyfunction!(memory_budget, m)?)?;
     #[cfg(feature = "vdb")]
     m.add_function(wrap_pyfunction!(measure_velocity, m)?)?;
     m.add_class::<ParticleSkin>()?;

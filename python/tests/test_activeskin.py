@@ -186,6 +186,52 @@ def test_bad_arguments_raise_value_error_with_the_commands_message():
         activeskin.read_particles(ROOT / "README.md")
 
 
+def test_hostile_arrays_raise_and_the_skin_goes_on():
+    """Issue 52: what the command refuses, advance() refuses with the argument named, before
+    anything is sent to the skin (which then takes the next good frame); arrays too large
+    for the memory budget raise MemoryError before they are copied, never abort."""
+    skin = activeskin.ParticleSkin(R)
+    p, ids, _ = ball(1)
+    bad = lambda a, i, v: (a.__setitem__(i, v), a)[1]
+    for kwargs, error, text in [
+        (dict(positions=bad(p.copy(), (3, 1), np.nan)), ValueError, "positions: particle 3 has a NaN"),
+        (dict(positions=np.full_like(p, np.inf)), ValueError, "positions: particle 0"),
+        (dict(positions=p, radii=np.full(len(p), -R, np.float32)), ValueError, "radii: particle 0"),
+        (dict(positions=p, velocities=bad(np.zeros_like(p), (2, 2), np.inf)), ValueError, "velocities: particle 2"),
+        (dict(positions=p[:, :, None]), ValueError, "positions must be an (n, 3) array"),
+        (dict(positions=[]), ValueError, "positions must be an (n, 3) array"),
+        (dict(positions=None), ValueError, "positions must be an (n, 3) array"),
+        (dict(positions=p, ids=None, radii=np.zeros((len(p), 2))), ValueError, "radii must be an"),
+        (dict(positions=np.broadcast_to(np.zeros(3, np.float32), (2**31, 3))), MemoryError, "memory budget"),
+    ]:
+        with pytest.raises(error, match=text.replace("(", r"\(").replace(")", r"\)")):
+            skin.advance(**kwargs)
+    # An object array holding None: NaN once converted, refused as NaN.
+    held = p.astype(object)
+    held[5, 0] = None
+    with pytest.raises(ValueError, match="positions: particle 5 has a NaN"):
+        skin.advance(held)
+    # A budget the caller sets: 150 M rows refused under 1 GB, allowed back after.
+    activeskin.set_memory_budget(1.0)
+    try:
+        assert activeskin.memory_budget() == 1.0
+        with pytest.raises(MemoryError, match="set_memory_budget"):
+            skin.advance(np.broadcast_to(np.zeros(3, np.float32), (150_000_000, 3)))
+    finally:
+        activeskin.set_memory_budget(0)
+    with pytest.raises(ValueError, match="non-negative"):
+        activeskin.set_memory_budget(float("nan"))
+    # The skin goes on with a good frame.
+    mesh = skin.advance(p, ids=ids)
+    assert len(mesh.triangles) > 0
+    # Voxels too fine for 32-bit coordinates where the particles are: said, not an empty mesh.
+    with pytest.raises(ValueError, match="larger voxel size"):
+        activeskin.ParticleSkin(1e-9).advance(p + 0.5)
+    # A radius whose voxels' areas overflow 32-bit floats: said, not blamed on beta.
+    with pytest.raises(ValueError, match="beyond 1e15 world units"):
+        activeskin.ParticleSkin(1e30)
+
+
 def test_a_python_thread_keeps_running_while_a_frame_computes():
     counted = [0]
     stop = threading.Event()

@@ -148,6 +148,9 @@ pub struct ParticleInput {
     pub attributes: AttributeChoice,
 }
 
+/// The largest radius or voxel size a particle run takes, in world units.
+const MAX_LENGTH: f32 = 1e15;
+
 impl ParticleInput {
     /// Particles of `radius` at the defaults: smoothing length
     /// [`DEFAULT_SMOOTHING_LENGTH`], the iso-density of a fluid at rest's boundary
@@ -244,6 +247,14 @@ impl ParticleInput {
         }
         positive("--iso", self.iso)?;
         positive("--voxel-size", self.dx)?;
+        // Areas and tensions (β ∝ Δx²) must stay finite in 32-bit floats.
+        for (name, v) in [("--radius", self.radius), ("--voxel-size", self.dx)] {
+            if v > MAX_LENGTH {
+                return Err(FrameError::Usage(format!(
+                    "{name} {v} is beyond {MAX_LENGTH:e} world units: 32-bit floats cannot hold the areas of such voxels"
+                )));
+            }
+        }
         if let Some(k) = self.velocity_scale.filter(|k| !k.is_finite()) {
             return Err(FrameError::Usage(format!(
                 "--velocity-scale must be a number, got {k}"
@@ -297,6 +308,13 @@ impl ParticleInput {
         // its voxels: left out, and said (as are those of the frame they are matched to).
         let reach = REACH_VOXELS * self.dx;
         let far = cloud.keep_within(reach);
+        if far > 0 && cloud.positions.is_empty() {
+            return Err(FrameError::Usage(format!(
+                "{}: every particle lies more than {reach} from the origin, where 32-bit coordinates do not resolve voxels of {}: give a larger voxel size",
+                path.display(),
+                self.dx
+            )));
+        }
         // Copied only when it has some to leave out.
         let before: Option<Cow<Particles>> = before.map(|b| match b.within(reach) {
             true => Cow::Borrowed(b),
@@ -343,7 +361,7 @@ impl ParticleInput {
         };
         let budget = crate::budget::bytes();
         let grid = DensityGrid::rasterize_within(&density, self.dx, budget).map_err(|needed| {
-            FrameError::Data(format!(
+            FrameError::OverBudget(format!(
                 "{}: the particles' density would take {} at voxels of {} (kernels of {} across), over the memory budget of {}: give a larger --voxel-size (or --max-memory)",
                 path.display(),
                 crate::budget::size(needed),

@@ -74,12 +74,8 @@ pub enum ParticleFault {
         #[source]
         source: Box<ParticleFault>,
     },
-    #[error("particle {0} has a NaN or infinite coordinate")]
-    Position(usize),
-    #[error("particle {0} has a velocity that is not finite")]
-    Velocity(usize),
-    #[error("particle {0} has a radius that is not a positive number")]
-    Radius(usize),
+    #[error(transparent)]
+    Invalid(#[from] crate::particles::InvalidParticle),
     /// OpenVDB's reason, through the bridge.
     #[error("{0}")]
     Vdb(String),
@@ -355,19 +351,7 @@ fn from_arrays(
 }
 
 fn check(particles: Particles) -> Result<Particles, ParticleFault> {
-    if let Some(i) = particles.positions.iter().position(|p| !p.is_finite()) {
-        return Err(ParticleFault::Position(i));
-    }
-    if let Some(v) = &particles.velocities {
-        if let Some(i) = v.iter().position(|v| !v.is_finite()) {
-            return Err(ParticleFault::Velocity(i));
-        }
-    }
-    if let Some(radii) = &particles.radii {
-        if let Some(i) = radii.iter().position(|r| !(r.is_finite() && *r > 0.0)) {
-            return Err(ParticleFault::Radius(i));
-        }
-    }
+    particles.check()?;
     Ok(particles)
 }
 
