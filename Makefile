@@ -68,15 +68,22 @@ fuzz: deps
 
 # The Python package: an abi3 wheel (CPython 3.10+) in target/wheels; then
 # pip install target/wheels/activeskin-*.whl
-wheel:
-	@command -v maturin >/dev/null || python3 -m pip install --user "maturin>=1.5,<2"
-	maturin build --release -m python/Cargo.toml -o target/wheels
+# maturin in a venv the Makefile owns: `pip install --user` put it in ~/.local/bin, off a
+# fresh machine's PATH, and Debian's pip refuses system-wide installs.
+MATURIN_VENV := target/maturin-venv
+MATURIN := $(MATURIN_VENV)/bin/maturin
+
+$(MATURIN):
+	python3 -m venv --clear $(MATURIN_VENV)
+	$(MATURIN_VENV)/bin/python -m pip install --quiet --disable-pip-version-check "maturin>=1.5,<2"
+
+wheel: deps $(MATURIN)
+	$(MATURIN) build --release -m python/Cargo.toml -o target/wheels
 
 # The wheel with OpenVDB (VDB files in LevelSetSkin, save_vdb, skin_sequence), linked to
 # the system's libopenvdb (not bundled: for machines that have it), in target/wheels-vdb.
-wheel-vdb: deps
-	@command -v maturin >/dev/null || python3 -m pip install --user "maturin>=1.5,<2"
-	maturin build --release -m python/Cargo.toml --features vdb --auditwheel skip -o target/wheels-vdb
+wheel-vdb: deps $(MATURIN)
+	$(MATURIN) build --release -m python/Cargo.toml --features vdb --auditwheel skip -o target/wheels-vdb
 
 # The add-on as one zip with the wheel inside: Blender 3.x installs it from Preferences >
 # Add-ons > Install; 4.2+ as an extension (the manifest lists the wheel).

@@ -179,7 +179,7 @@ fn outputs_that_would_overwrite_each_other_are_refused_before_frame_one() {
     // A VDB under another format's name.
     let density = dir.path().join("density.####.ply");
     let out = run(&["--density-out", density.to_str().unwrap(), "--mesh", mesh]);
-    refused(&out, 2, "must end in .vdb");
+    refused(&out, 2, "VDB fog volumes must end in .vdb");
     assert_eq!(
         std::fs::read_dir(dir.path()).unwrap().count(),
         1,

@@ -130,11 +130,6 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
         .particle_params(particles.radius, particles.dx)?;
     if let Some(spec) = &args.density_out {
         let out = pattern_arg(spec)?;
-        if !activeskin::io::has_extension(&out.path(0), &["vdb"]) {
-            usage!(
-                "--density-out writes VDB fog volumes: its pattern must end in .vdb, got '{spec}'"
-            );
-        }
         let folder = out.folder();
         std::fs::create_dir_all(&folder)
             .with_context(|| format!("{}: cannot create the output folder", folder.display()))?;

@@ -164,6 +164,12 @@ impl Outputs {
     /// chunks writing other frames into the same folders may be running).
     pub fn new(spec: &OutputSpec, (first, last): (i64, i64)) -> Result<Self, FrameError> {
         let usage = |m: String| Err(FrameError::Usage(m));
+        if let Some(out) = &spec.out {
+            require_extension("--out", out, "skin level sets (VDB)", &["vdb"])?;
+        }
+        for (flag, pattern) in &spec.side_outputs {
+            require_extension(flag, pattern, "VDB fog volumes", &["vdb"])?;
+        }
         if let Some(mesh) = &spec.mesh {
             require_extension("--mesh", mesh, "meshes", crate::io::mesh::EXTENSIONS)?;
         }
