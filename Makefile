@@ -70,15 +70,18 @@ fuzz: deps
 # pip install target/wheels/activeskin-*.whl
 # maturin in a venv the Makefile owns: `pip install --user` put it in ~/.local/bin, off a
 # fresh machine's PATH, and Debian's pip refuses system-wide installs.
-MATURIN_VENV := target/maturin-venv
+# (Both folders are variables for tests/python.rs, which builds the wheel with `make wheel`
+# in a clean environment.)
+MATURIN_VENV ?= target/maturin-venv
 MATURIN := $(MATURIN_VENV)/bin/maturin
+WHEELS ?= target/wheels
 
 $(MATURIN):
 	python3 -m venv --clear $(MATURIN_VENV)
 	$(MATURIN_VENV)/bin/python -m pip install --quiet --disable-pip-version-check "maturin>=1.5,<2"
 
 wheel: deps $(MATURIN)
-	$(MATURIN) build --release -m python/Cargo.toml -o target/wheels
+	$(MATURIN) build --release -m python/Cargo.toml -o $(WHEELS)
 
 # The wheel with OpenVDB (VDB files in LevelSetSkin, save_vdb, skin_sequence), linked to
 # the system's libopenvdb (not bundled: for machines that have it), in target/wheels-vdb.
@@ -90,7 +93,7 @@ wheel-vdb: deps $(MATURIN)
 blender-addon: wheel
 	rm -rf target/blender/activeskin_blender && mkdir -p target/blender/activeskin_blender/wheels
 	cp blender/activeskin_blender/__init__.py target/blender/activeskin_blender/
-	cp target/wheels/activeskin-*.whl target/blender/activeskin_blender/wheels/
+	cp $(WHEELS)/activeskin-*.whl target/blender/activeskin_blender/wheels/
 	sed "s|^wheels = \[\]|wheels = [$$(cd target/blender/activeskin_blender && ls wheels/*.whl | sed 's|.*|\"./&\"|' | paste -sd,)]|" \
 		blender/activeskin_blender/blender_manifest.toml > target/blender/activeskin_blender/blender_manifest.toml
 	cd target/blender && rm -f activeskin_blender.zip && python3 -m zipfile -c activeskin_blender.zip activeskin_blender

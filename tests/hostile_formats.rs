@@ -250,4 +250,16 @@ fn a_velocity_without_a_row_per_point_is_an_error_not_dropped() {
         1,
         "array 'velocity' has 2 rows for 3 points",
     );
+    // Another point array too: said, not dropped (an --attribute asking for it was told
+    // the file has no such attribute).
+    std::fs::write(
+        &vtk,
+        "# vtk DataFile Version 3.0\nshort\nASCII\nDATASET POLYDATA\nPOINTS 3 float\n0 0 0 0.02 0 0 0.04 0 0\nPOINT_DATA 3\nFIELD FieldData 1\nage 1 2 float\n1 2\n",
+    )
+    .unwrap();
+    refused(
+        &particles(&vtk, dir.path(), &[]),
+        1,
+        "array 'age' has 2 rows for 3 points",
+    );
 }

@@ -45,15 +45,28 @@ fn wheel(vdb: bool) -> (PathBuf, PathBuf) {
     // Its own target folder: the build running this test holds the workspace's.
     let wheels = work.join("wheels");
     let _ = std::fs::remove_dir_all(&wheels);
-    let made = Command::new(venv.join("bin/maturin"))
-        .args(["build", "--release", "--quiet", "-m"])
-        .arg(root.join("python/Cargo.toml"))
-        .args(features)
-        .arg("-o")
-        .arg(&wheels)
-        .env("CARGO_TARGET_DIR", work.join("target"))
-        .output()
-        .expect("maturin");
+    let made = match vdb {
+        // As a new user builds it: `make wheel` with nothing of this machine's set-up on
+        // the PATH or in HOME (maturin in a venv the Makefile makes).
+        false => fresh_make(root, &work)
+            .arg("wheel")
+            .arg(format!(
+                "MATURIN_VENV={}",
+                work.join("maturin-venv").display()
+            ))
+            .arg(format!("WHEELS={}", wheels.display()))
+            .output()
+            .expect("make"),
+        true => Command::new(venv.join("bin/maturin"))
+            .args(["build", "--release", "--quiet", "-m"])
+            .arg(root.join("python/Cargo.toml"))
+            .args(features)
+            .arg("-o")
+            .arg(&wheels)
+            .env("CARGO_TARGET_DIR", work.join("target"))
+            .output()
+            .expect("maturin"),
+    };
     assert_ok(&made);
     let wheel = std::fs::read_dir(&wheels)
         .unwrap()
@@ -78,6 +91,37 @@ fn wheel(vdb: bool) -> (PathBuf, PathBuf) {
     );
     *built = Some((wheel, python));
     built.clone().unwrap()
+}
+
+/// `make -C root` in an environment as bare as a fresh machine's: the system's PATH and
+/// cargo's folder only, a HOME of its own (no `~/.local/bin`, no user site), the build in
+/// `work/target` (the build running this test holds the workspace's).
+fn fresh_make(root: &Path, work: &Path) -> Command {
+    let home = work.join("home");
+    std::fs::create_dir_all(&home).unwrap();
+    let real_home = PathBuf::from(std::env::var_os("HOME").expect("HOME"));
+    let cargo_home = std::env::var_os("CARGO_HOME")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| real_home.join(".cargo"));
+    let rustup_home = std::env::var_os("RUSTUP_HOME")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| real_home.join(".rustup"));
+    let cargo = PathBuf::from(std::env::var_os("CARGO").expect("CARGO: run by cargo test"));
+    let path = format!(
+        "{}:/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin",
+        cargo.parent().unwrap().display()
+    );
+    let mut make = Command::new("make");
+    make.arg("-C")
+        .arg(root)
+        .arg("--no-print-directory")
+        .env_clear()
+        .env("PATH", path)
+        .env("HOME", home)
+        .env("CARGO_HOME", cargo_home)
+        .env("RUSTUP_HOME", rustup_home)
+        .env("CARGO_TARGET_DIR", work.join("target"));
+    make
 }
 
 /// Runs the pytest suite with `python`.

@@ -197,23 +197,39 @@ fn read_bgeo(bytes: &[u8]) -> Result<Particles, ParticleFault> {
             &points.attributes,
             n,
             &["pscale", "radius", "v", "velocity", "vel", "id"],
-        ),
+        )?,
     })
 }
 
 /// The scalar and vector arrays with a row for each of the `n` points, but those read as
 /// `known` (ASCII case ignored): the attributes `--attribute` may carry onto the surface.
-fn attributes(arrays: &[super::PointArray], n: usize, known: &[&str]) -> Vec<Attribute> {
-    arrays
+fn attributes(
+    arrays: &[super::PointArray],
+    n: usize,
+    known: &[&str],
+) -> Result<Vec<Attribute>, ParticleFault> {
+    let mut out = Vec::new();
+    for a in arrays
         .iter()
         .filter(|a| !known.iter().any(|k| a.name.eq_ignore_ascii_case(k)))
-        .filter(|a| matches!(a.components, 1 | 3) && a.values.len() == n * a.components)
-        .map(|a| Attribute {
+        .filter(|a| matches!(a.components, 1 | 3))
+    {
+        // Point data without a row per point: said, not dropped (an --attribute asking
+        // for it would be told the file has none).
+        if a.values.len() != n * a.components {
+            return Err(ParticleFault::Rows {
+                name: a.name.clone(),
+                rows: a.values.len() / a.components,
+                points: n,
+            });
+        }
+        out.push(Attribute {
             name: a.name.clone(),
             components: a.components,
             values: a.values.iter().map(|&v| v as f32).collect(),
-        })
-        .collect()
+        });
+    }
+    Ok(out)
 }
 
 /// The values of the array called one of `names` with `components` components; an error
@@ -346,7 +362,7 @@ fn from_arrays(
                 "idp",
                 "ids",
             ],
-        ),
+        )?,
     })
 }
 
