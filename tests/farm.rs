@@ -302,7 +302,8 @@ fn a_slurm_job_array_meets_the_sequential_run() {
         .nth(3)
         .and_then(|w| w.trim_end_matches(':').parse::<u64>().ok())
         .unwrap_or_else(|| panic!("no job id in: {said}"));
-    // A job is done when Slurm lists none of its tasks as pending or running.
+    // A job is done when Slurm lists none of its tasks as pending, running or completing
+    // (the state between a task's end and its epilog's: seen on a resubmitted chunk).
     let wait = |id: u64, tasks: usize| -> Vec<String> {
         loop {
             let out = Command::new("scontrol")
@@ -318,7 +319,8 @@ fn a_slurm_job_array_meets_the_sequential_run() {
                 })
                 .map(String::from)
                 .collect();
-            if now.len() == tasks && now.iter().all(|s| s != "PENDING" && s != "RUNNING") {
+            let done = |s: &String| !matches!(s.as_str(), "PENDING" | "RUNNING" | "COMPLETING");
+            if now.len() == tasks && now.iter().all(done) {
                 return now;
             }
             if begun.elapsed() > Duration::from_secs(180) {
