@@ -172,6 +172,14 @@ pub(crate) fn block_of(ijk: IVec3) -> IVec3 {
     ijk >> 3
 }
 
+/// The block holding global node `ijk` and the node's offset in it.
+#[inline]
+pub(crate) fn node_in_block(ijk: IVec3) -> (IVec3, usize) {
+    let coord = block_of(ijk);
+    let l = ijk - coord * BLOCK_DIM;
+    (coord, node_offset(l.x, l.y, l.z))
+}
+
 /// A stored value of the potential, clamped to [-1, 1].
 pub trait Potential: Copy + Send + Sync + 'static {
     const INSIDE: Self;
@@ -330,12 +338,9 @@ impl<P: Potential> SparseGrid<P> {
 
     /// Value at a global node, stored or not.
     pub fn value(&self, ijk: IVec3) -> f32 {
-        let coord = block_of(ijk);
+        let (coord, o) = node_in_block(ijk);
         match self.find(coord) {
-            Some(id) => {
-                let l = ijk - coord * BLOCK_DIM;
-                self.block(id).values[node_offset(l.x, l.y, l.z)].to_f32()
-            }
+            Some(id) => self.block(id).values[o].to_f32(),
             None => self.tile_value(coord).to_f32(),
         }
     }

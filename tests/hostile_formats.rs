@@ -11,10 +11,18 @@ use std::process::Output;
 /// Each case's inputs are under 4 MB: its run stays under 1 GB resident.
 const PEAK_BYTES: u64 = 1_000_000_000;
 
-/// `particles` on `input` (one frame), writing into `dir`, with `extra`: its output and
-/// peak memory, checked against the bound.
+/// `particles` on `input` (one frame), meshes written into `dir`, with `extra`.
 fn particles(input: &Path, dir: &Path, extra: &[&str]) -> Output {
     let mesh = dir.join("mesh.####.obj");
+    run(
+        input,
+        &[&["--mesh", mesh.to_str().unwrap()], extra].concat(),
+    )
+}
+
+/// `particles` on `input` (one frame) with `options` (its outputs among them): its
+/// output, its peak memory checked against the bound.
+fn run(input: &Path, options: &[&str]) -> Output {
     let mut args: Vec<&str> = vec![
         "particles",
         "--particles",
@@ -24,10 +32,8 @@ fn particles(input: &Path, dir: &Path, extra: &[&str]) -> Output {
         "--frames",
         "1-1",
         "-q",
-        "--mesh",
-        mesh.to_str().unwrap(),
     ];
-    args.extend_from_slice(extra);
+    args.extend_from_slice(options);
     let (out, peak) = common::activeskin_measured(&args);
     assert!(
         peak <= PEAK_BYTES,
@@ -156,21 +162,8 @@ fn outputs_that_would_overwrite_each_other_are_refused_before_frame_one() {
     let input = dir.path().join("drop.ply");
     write_ply(&input, &[[0.5, 0.5, 0.5], [0.52, 0.5, 0.5]]);
     let mesh = dir.path().join("o.####.ply");
-    let (input, mesh) = (input.to_str().unwrap(), mesh.to_str().unwrap());
-    let run = |extra: &[&str]| {
-        let mut args = vec![
-            "particles",
-            "--particles",
-            input,
-            "--radius",
-            "0.01",
-            "--frames",
-            "1-1",
-            "-q",
-        ];
-        args.extend_from_slice(extra);
-        common::activeskin_bounded(&args)
-    };
+    let mesh = mesh.to_str().unwrap();
+    let run = |options: &[&str]| run(&input, options);
     // The density's fog volumes onto the skin's level sets.
     let vdb = dir.path().join("o.####.vdb");
     let vdb = vdb.to_str().unwrap();
@@ -219,20 +212,15 @@ fn messages_are_one_printable_line_whatever_the_file_or_the_argument_holds() {
     // An attribute named with a newline, echoed escaped.
     let input = common::data("sph/vtk/ParticleData_Fluid_2.vtk");
     let mesh = dir.path().join("m.####.ply");
-    let out = common::activeskin_bounded(&[
-        "particles",
-        "--particles",
-        &input,
-        "--radius",
-        "0.01",
-        "--frames",
-        "1-1",
-        "-q",
-        "--mesh",
-        mesh.to_str().unwrap(),
-        "--attribute",
-        "age\nrm -rf",
-    ]);
+    let out = run(
+        Path::new(&input),
+        &[
+            "--mesh",
+            mesh.to_str().unwrap(),
+            "--attribute",
+            "age\nrm -rf",
+        ],
+    );
     refused(&out, 1, "no particle attribute 'age\\nrm -rf'");
 }
 

@@ -214,15 +214,8 @@ fn attributes(
         .filter(|a| !known.iter().any(|k| a.name.eq_ignore_ascii_case(k)))
         .filter(|a| matches!(a.components, 1 | 3))
     {
-        // Point data without a row per point: said, not dropped (an --attribute asking
-        // for it would be told the file has none).
-        if a.values.len() != n * a.components {
-            return Err(ParticleFault::Rows {
-                name: a.name.clone(),
-                rows: a.values.len() / a.components,
-                points: n,
-            });
-        }
+        // Said, not dropped: an --attribute asking for it would be told the file has none.
+        row_per_point(a, n)?;
         out.push(Attribute {
             name: a.name.clone(),
             components: a.components,
@@ -241,13 +234,20 @@ fn column<'a>(
     names: &[&str],
     components: usize,
 ) -> Result<Option<&'a [f64]>, ParticleFault> {
-    match super::find_array(arrays, names, components) {
-        Some(a) if a.values.len() != n * components => Err(ParticleFault::Rows {
+    let found = super::find_array(arrays, names, components);
+    found.map(|a| row_per_point(a, n)).transpose()?;
+    Ok(found.map(|a| a.values.as_slice()))
+}
+
+/// Point data `a` holds a row for each of the `n` points.
+fn row_per_point(a: &super::PointArray, n: usize) -> Result<(), ParticleFault> {
+    match a.values.len() == n * a.components {
+        true => Ok(()),
+        false => Err(ParticleFault::Rows {
             name: a.name.clone(),
-            rows: a.values.len() / components,
+            rows: a.values.len() / a.components.max(1),
             points: n,
         }),
-        found => Ok(found.map(|a| a.values.as_slice())),
     }
 }
 

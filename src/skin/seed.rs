@@ -8,7 +8,7 @@ use hashbrown::HashSet;
 use rayon::prelude::*;
 
 use super::Skin;
-use crate::grid::{node_offset, offset_coords, Potential, AROUND, BLOCK_DIM, BLOCK_NODES};
+use crate::grid::{node_in_block, offset_coords, Potential, AROUND, BLOCK_DIM, BLOCK_NODES};
 use crate::grid::{Aabb, IndexToWorld};
 use crate::target::Target;
 
@@ -238,9 +238,7 @@ impl<P: Potential> Skin<P> {
         // A node's skin potential and whether it is target material outside the skin;
         // `None` beyond the blocks read.
         let node = |n: IVec3| {
-            let c = n.div_euclid(IVec3::splat(BLOCK_DIM));
-            let l = n - c * BLOCK_DIM;
-            let o = node_offset(l.x, l.y, l.z);
+            let (c, o) = node_in_block(n);
             blocks.get(&c).map(|b| match b {
                 Some(b) => (b.skin[o], b.wet[o]),
                 None => (-1.0, false),
@@ -292,12 +290,10 @@ impl<P: Potential> Skin<P> {
                 continue;
             };
             let d = target.distance(xf.apply(n.as_vec3())) / (w * dx);
-            let c = n.div_euclid(IVec3::splat(BLOCK_DIM));
-            let l = n - c * BLOCK_DIM;
+            let (c, o) = node_in_block(n);
             seeds
                 .entry(c)
-                .or_insert_with(|| Box::new([1.0; BLOCK_NODES]))[node_offset(l.x, l.y, l.z)] =
-                d.clamp(-1.0, 1.0).min(s);
+                .or_insert_with(|| Box::new([1.0; BLOCK_NODES]))[o] = d.clamp(-1.0, 1.0).min(s);
         }
         let mut seeds: Seeds = seeds.into_iter().collect();
         seeds.sort_unstable_by_key(|(c, _)| c.to_array());

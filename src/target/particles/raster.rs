@@ -597,14 +597,8 @@ impl Target for DensityGrid {
     /// around, the distance to the neighbourhood's edge bounds it instead: a seed or a
     /// start skin then skips those blocks outright.
     fn distance(&self, p: Vec3) -> f32 {
-        let u = p / self.dx;
-        let c = floor_ivec3(u) >> 3;
-        match self.block(c) {
-            Some(block) if block.deep => return -depth_in_neighbourhood(c, u) * self.dx,
-            None if AROUND.iter().all(|&d| self.block(c + d).is_none()) => {
-                return depth_in_neighbourhood(c, u) * self.dx
-            }
-            _ => {}
+        if let Some(bound) = self.bound_by_blocks(p) {
+            return bound;
         }
         let (g, grad) = self.density_and_gradient(p);
         let value = self.iso - g;
@@ -614,26 +608,24 @@ impl Target for DensityGrid {
     /// The density alone against the iso: [`Target::distance`]'s sign without its
     /// gradient.
     fn inside(&self, p: Vec3) -> bool {
-        let c = floor_ivec3(p / self.dx) >> 3;
-        match self.block(c) {
-            Some(block) if block.deep => true,
-            None if AROUND.iter().all(|&d| self.block(c + d).is_none()) => false,
-            _ => self.interpolate(p, |b, o| [b.field[0][o]])[0] > self.iso,
+        match self.bound_by_blocks(p) {
+            Some(bound) => bound < 0.0,
+            None => self.interpolate(p, |b, o| [b.field[0][o]])[0] > self.iso,
         }
     }
     /// A block of a skin on this grid's own nodes and blocks (the particle runs' case)
     /// reads this grid's block: one lookup, no interpolation.
     fn block_inside(&self, corner: Vec3, dx: f32, out: &mut [bool; BLOCK_NODES]) {
-        let base = (corner / (DIM as f32 * self.dx)).round();
-        let aligned = (dx - self.dx).abs() <= 1e-6 * self.dx
-            && (corner - base * DIM as f32 * self.dx).abs().max_element() <= 1e-4 * self.dx;
-        if !aligned {
+        let Some(base) = self
+            .node_at(corner, dx)
+            .filter(|b| *b & (DIM - 1) == IVec3::ZERO)
+        else {
             for (o, inside) in out.iter_mut().enumerate() {
                 *inside = self.inside(corner + offset_coords(o).as_vec3() * dx);
             }
             return;
-        }
-        match self.block(base.as_ivec3()) {
+        };
+        match self.block(base >> 3) {
             Some(block) if block.deep => out.fill(true),
             Some(block) => {
                 for (inside, &g) in out.iter_mut().zip(block.field[0].iter()) {
@@ -664,6 +656,30 @@ impl Target for DensityGrid {
 }
 
 impl DensityGrid {
+    /// This grid's node at `corner` when a skin of voxels `dx` with a node there shares
+    /// this grid's nodes (the particle runs' case): its blocks are then read, not
+    /// interpolated.
+    fn node_at(&self, corner: Vec3, dx: f32) -> Option<IVec3> {
+        let base = (corner / self.dx).round();
+        let aligned = (dx - self.dx).abs() <= 1e-6 * self.dx
+            && (corner - base * self.dx).abs().max_element() <= 1e-4 * self.dx;
+        aligned.then(|| base.as_ivec3())
+    }
+
+    /// The distance at `p` where its block alone bounds it: in a deep block, and where no
+    /// particle reaches the 3³ blocks around, the distance to the neighbourhood's edge.
+    fn bound_by_blocks(&self, p: Vec3) -> Option<f32> {
+        let u = p / self.dx;
+        let c = floor_ivec3(u) >> 3;
+        match self.block(c) {
+            Some(block) if block.deep => Some(-depth_in_neighbourhood(c, u) * self.dx),
+            None if AROUND.iter().all(|&d| self.block(c + d).is_none()) => {
+                Some(depth_in_neighbourhood(c, u) * self.dx)
+            }
+            _ => None,
+        }
+    }
+
     /// The particles' kernel-weighted mean velocity at `p` (Shepard, Σ W·v / Σ W, with the
     /// velocity's kernel, [`super::VELOCITY_SUPPORT_RADII`]); `None` where no particle
     /// reaches or none carries a velocity.
@@ -697,18 +713,15 @@ impl FlowMap for DensityGrid {
     /// A skin on this grid's own nodes (the particle runs' case) reads each node's mean
     /// from its block, one lookup per block met, instead of eight corners interpolated.
     fn block_departures(&self, corner: Vec3, dx: f32, duration: f32, out: &mut Vec<Option<Vec3>>) {
-        let base = (corner / self.dx).round();
-        let aligned = (dx - self.dx).abs() <= 1e-6 * self.dx
-            && (corner - base * self.dx).abs().max_element() <= 1e-4 * self.dx;
-        if !self.velocities || !aligned {
+        let base = self.node_at(corner, dx);
+        let (true, Some(base)) = (self.velocities, base) else {
             out.clear();
             out.extend(
                 (0..BLOCK_NODES)
                     .map(|o| self.departure(corner + offset_coords(o).as_vec3() * dx, duration)),
             );
             return;
-        }
-        let base = base.as_ivec3();
+        };
         let mut last: Option<(IVec3, Option<&Block>)> = None;
         out.clear();
         out.extend((0..BLOCK_NODES).map(|o| {
