@@ -21,7 +21,7 @@ demo: build
 	@echo "demo: in ./$(OUT): fig7/ (six blobs to two spheres), orbit/ (a moving target), splash/ (a drop of particles): VDB, OBJ, EXR, a USD shot, stats"
 
 # The peer race (activeskin bench: OpenVDB's tools side by side), the step alone, and
-# the README's long examples (console slow blocks).
+# the README's and docs/' long examples (console slow blocks).
 bench: deps
 	$(CARGO) run --release -- bench
 	$(CARGO) bench --bench step

@@ -1,4 +1,4 @@
-# Used for the figures in the README's "Simulation caches" section, and by the Blender
+# Used for the figures in docs/guide.md's "Simulation caches" section, and by the Blender
 # add-on's test (drop_into_pool). A ball of liquid dropped into a pool, baked by
 # Mantaflow to OpenVDB (Blender, headless):
 # blender -b --python examples/mantaflow_bake.py -- OUT_FOLDER

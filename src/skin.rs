@@ -89,7 +89,7 @@ pub struct Physics {
 /// What one unit of smoothing does: voxels² of curvature flow a frame on a level set,
 /// particle radii² on particles (bumps of wavelength λ decay as exp(−4π²·this/λ²) a
 /// frame: those of two particle spacings to 1/3, and their damping adds up from frame to
-/// frame). Chosen on a SPlisHSPlasH dam break at cell = r (README, *Particles*): the
+/// frame). Chosen on a SPlisHSPlasH dam break at cell = r (docs/particles.md, *Smoothing*): the
 /// particle-scale bumps of a moving liquid below smoothed splashsurf's at no more time.
 pub const SMOOTHING_UNIT: f32 = 8.0 / 3.0;
 

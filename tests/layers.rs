@@ -1,4 +1,4 @@
-//! The library's layers, arrows pointing down only (README, "Layout"): the core — grid,
+//! The library's layers, arrows pointing down only (docs/how-it-works.md): the core — grid,
 //! skin, flow, targets, polygonizer, meshes, particles — imports nothing from the file
 //! formats, the frame loop or the measurements above it, and no two modules import each
 //! other, directly or around a circle. Read from the sources: a `crate::module` path

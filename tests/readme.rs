@@ -1,7 +1,8 @@
-//! The README's `console` examples are run as written (issue 32): each block in a scratch
-//! folder of its own holding the sample `data/`, its commands in order, each one's output
-//! (stdout, then stderr) and exit code compared with what the README shows. So a default,
-//! a message or an exit code that changes without the README failing here.
+//! The `console` examples of the README and of `docs/*.md` are run as written (issue 32):
+//! each block in a scratch folder of its own holding the sample `data/`, its commands in
+//! order, each one's output (stdout, then stderr) and exit code compared with what the
+//! page shows. So a default, a message or an exit code cannot change without a page
+//! failing here.
 //!
 //! The format, in a fenced block tagged `console`:
 //! - `$ activeskin ARGS` runs the binary (quotes as a shell reads them; a line ending in
@@ -19,23 +20,23 @@ mod common;
 use std::path::Path;
 use std::process::Command;
 
-/// One command of a block and what the README shows of it.
+/// One command of a block and what its page shows of it.
 struct Example {
-    line: usize,
+    /// `page:line`, for the failure's message.
+    at: String,
     args: Vec<String>,
     expected: Vec<String>,
     code: i32,
 }
 
-/// The README's `console` blocks (`console slow` ones when `slow`), each a list of
-/// examples.
-fn blocks(readme: &str, slow: bool) -> Vec<Vec<Example>> {
+/// A page's `console` blocks (`console slow` ones when `slow`), each a list of examples.
+fn blocks(page: &str, text: &str, slow: bool) -> Vec<Vec<Example>> {
     let tag = match slow {
         false => "```console",
         true => "```console slow",
     };
     let mut blocks = Vec::new();
-    let mut lines = readme.lines().enumerate().peekable();
+    let mut lines = text.lines().enumerate().peekable();
     while let Some((_, line)) = lines.next() {
         if line.trim() != tag {
             continue;
@@ -63,11 +64,11 @@ fn blocks(readme: &str, slow: bool) -> Vec<Vec<Example>> {
                 assert_eq!(
                     words.first().map(String::as_str),
                     Some("activeskin"),
-                    "README.md:{}: only activeskin commands run here",
+                    "{page}:{}: only activeskin commands run here",
                     n + 1
                 );
                 examples.push(Example {
-                    line: n + 1,
+                    at: format!("{page}:{}", n + 1),
                     args: words[1..].to_vec(),
                     expected: Vec::new(),
                     code: 0,
@@ -80,7 +81,7 @@ fn blocks(readme: &str, slow: bool) -> Vec<Vec<Example>> {
             } else {
                 let last = examples
                     .last_mut()
-                    .unwrap_or_else(|| panic!("README.md:{}: output before any command", n + 1));
+                    .unwrap_or_else(|| panic!("{page}:{}: output before any command", n + 1));
                 last.expected.push(line.to_string());
             }
         }
@@ -191,15 +192,15 @@ fn run(blocks: &[Vec<Example>]) -> Vec<String> {
             );
             let lines: Vec<&str> = printed.lines().collect();
             let code = out.status.code().unwrap_or(-1);
-            // A README's blank line after the output is not output.
+            // A page's blank line after the output is not output.
             let mut expected = example.expected.clone();
             while expected.last().is_some_and(|l| l.is_empty()) {
                 expected.pop();
             }
             if code != example.code || !lines_match(&expected, &lines) {
                 failures.push(format!(
-                    "README.md:{}: activeskin {}\n  README shows (exit {}):\n    {}\n  printed (exit {code}):\n    {}",
-                    example.line,
+                    "{}: activeskin {}\n  the page shows (exit {}):\n    {}\n  printed (exit {code}):\n    {}",
+                    example.at,
                     example.args.join(" "),
                     example.code,
                     expected.join("\n    "),
@@ -208,19 +209,35 @@ fn run(blocks: &[Vec<Example>]) -> Vec<String> {
             }
         }
     }
-    println!("{ran} README examples run");
+    println!("{ran} examples run");
     failures
 }
 
-fn readme() -> String {
+/// The blocks of the README and of every page in `docs/`.
+fn all_blocks(slow: bool) -> Vec<Vec<Example>> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    std::fs::read_to_string(root.join("README.md")).unwrap()
+    let mut pages = vec!["README.md".to_string()];
+    let mut docs: Vec<String> = std::fs::read_dir(root.join("docs"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|name| name.ends_with(".md"))
+        .map(|name| format!("docs/{name}"))
+        .collect();
+    docs.sort();
+    pages.extend(docs);
+    pages
+        .iter()
+        .flat_map(|page| {
+            let text = std::fs::read_to_string(root.join(page)).unwrap();
+            blocks(page, &text, slow)
+        })
+        .collect()
 }
 
 #[test]
-fn the_readmes_examples_print_what_it_shows() {
-    let blocks = blocks(&readme(), false);
-    assert!(blocks.len() >= 6, "{} console blocks", blocks.len());
+fn the_pages_examples_print_what_they_show() {
+    let blocks = all_blocks(false);
+    assert!(blocks.len() >= 8, "{} console blocks", blocks.len());
     let failures = run(&blocks);
     assert!(failures.is_empty(), "{}", failures.join("\n\n"));
 }
@@ -228,8 +245,8 @@ fn the_readmes_examples_print_what_it_shows() {
 /// The long examples (`console slow`): `make bench` runs them.
 #[test]
 #[ignore = "long runs: make bench"]
-fn the_readmes_long_examples_print_what_it_shows() {
-    let blocks = blocks(&readme(), true);
+fn the_pages_long_examples_print_what_they_show() {
+    let blocks = all_blocks(true);
     assert!(!blocks.is_empty(), "no console slow block");
     let failures = run(&blocks);
     assert!(failures.is_empty(), "{}", failures.join("\n\n"));
@@ -259,4 +276,37 @@ fn the_harness_reads_shell_words_and_wildcards() {
     assert!(lines_match(&patterns, &["a", "b", "c", "z"]));
     assert!(lines_match(&patterns, &["a", "z"]));
     assert!(!lines_match(&patterns, &["a", "b"]));
+}
+
+/// The README stays a guide (issue 50: at most ~250 lines, the details in `docs/`), and
+/// every relative link of the README and the pages points at a file that is there.
+#[test]
+fn the_readme_is_short_and_every_link_resolves() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
+    let lines = readme.lines().count();
+    assert!(lines <= 250, "README.md is {lines} lines: move details to docs/");
+    let mut pages = vec![root.join("README.md"), root.join("CHANGELOG.md")];
+    for entry in std::fs::read_dir(root.join("docs")).unwrap() {
+        pages.push(entry.unwrap().path());
+    }
+    let mut broken = Vec::new();
+    let mut links = 0;
+    for page in pages.iter().filter(|p| p.extension().is_some_and(|e| e == "md")) {
+        let text = std::fs::read_to_string(page).unwrap();
+        for (at, _) in text.match_indices("](") {
+            let rest = &text[at + 2..];
+            let Some(end) = rest.find(')') else { continue };
+            let target = rest[..end].split('#').next().unwrap();
+            if target.is_empty() || target.contains("://") {
+                continue;
+            }
+            links += 1;
+            if !page.parent().unwrap().join(target).exists() {
+                broken.push(format!("{}: {target}", page.display()));
+            }
+        }
+    }
+    assert!(links >= 20, "{links} links");
+    assert!(broken.is_empty(), "broken links:\n{}", broken.join("\n"));
 }

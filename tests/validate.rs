@@ -2,7 +2,7 @@
 //! and volume within 0.5 %, symmetric Hausdorff ≤ 0.5 voxel, same χ), our measures against
 //! LevelSetMeasure (0.5 %), checkLevelSet on every grid we write. Features are resolved by
 //! at least 16 voxels: both meshes' discretisation error grows as (Δx/r)², and below that
-//! they drift apart by more than 0.5 % (see README).
+//! they drift apart by more than 0.5 % (see docs/validation.md).
 #![cfg(feature = "vdb")]
 
 mod common;

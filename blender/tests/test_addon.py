@@ -315,7 +315,7 @@ if not activeskin.HAS_VDB:
 else:
     manta = os.path.join(cache, "manta")
     scene.frame_start, scene.frame_end = 1, 8
-    # The README's Mantaflow example's scene, smaller, beside the others, with Blender's
+    # The Mantaflow example's scene (docs/guide.md), smaller, beside the others, with Blender's
     # own liquid mesh to compare the skin's place with.
     examples = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "examples")
     sys.path.insert(0, examples)

@@ -54,9 +54,10 @@ pub enum ParticleFault {
     Vtu(#[from] super::vtu::VtuError),
     #[error(transparent)]
     Bgeo(#[from] super::bgeo::BgeoError),
-    /// pysplishsplash 2.19's partio export writes each particle's id into the bits of its
-    /// x: x cannot be had back.
-    #[error("every x holds the particle's id, not a coordinate (SPlisHSPlasH's partio export writes so); export VTK (enableVTKExport) instead")]
+    /// Every x holds its particle's id bits (as the pysplishsplash 2.19 build that made
+    /// `data/sph/bgeo` wrote them; SPlisHSPlasH's own partio export writes P right):
+    /// x cannot be had back.
+    #[error("every x holds the particle's id, not a coordinate (a partio export that wrote ids into P); export VTK (enableVTKExport) instead")]
     IdsInX,
     #[error("lists no <Piece Source=...> files")]
     NoPieces,
@@ -172,8 +173,8 @@ fn read_bgeo(bytes: &[u8]) -> Result<Particles, ParticleFault> {
     let column =
         |names: &[&str], components: usize| column(&points.attributes, n, names, components);
     let ids: Option<Vec<i64>> = column(&["id"], 1)?.map(|v| v.iter().map(|&i| i as i64).collect());
-    // pysplishsplash 2.19's partio export writes each particle's id into the bits of its x
-    // (y, z and the attributes are right): x cannot be had back.
+    // A partio export that wrote each particle's id into the bits of its x (y, z and the
+    // attributes right, as in data/sph/bgeo): x cannot be had back.
     if let Some(ids) = &ids {
         let x_is_id = points
             .positions
