@@ -89,6 +89,11 @@ pub fn bad_usage(e: impl std::fmt::Display) -> anyhow::Error {
     anyhow::Error::new(Usage(e.to_string()))
 }
 
+/// A note of the library's on standard error, its fields said as flags.
+pub fn note(line: &str) {
+    eprintln!("activeskin: {}", activeskin::field::on_command_line(line));
+}
+
 /// A frame pattern given on the command line.
 pub fn pattern_arg(spec: &str) -> anyhow::Result<activeskin::sequence::FramePattern> {
     activeskin::sequence::FramePattern::parse(spec).map_err(bad_usage)
@@ -161,7 +166,7 @@ pub fn run() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             // Each cause once: a library error's message already holds its causes.
-            let line = activeskin::io::error_chain(e.as_ref());
+            let line = activeskin::field::on_command_line(&activeskin::io::error_chain(e.as_ref()));
             eprintln!("activeskin: error: {line}");
             let usage = e.downcast_ref::<Usage>().is_some()
                 || matches!(

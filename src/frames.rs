@@ -109,7 +109,8 @@ pub fn check_fps(fps: f64) -> Result<(), FrameError> {
         Ok(())
     } else {
         Err(FrameError::Usage(format!(
-            "the frame rate must be a positive number, got {fps}"
+            "{} must be a positive number, got {fps}",
+            crate::field::Field::Fps
         )))
     }
 }

@@ -41,6 +41,7 @@
 //! ```
 
 pub mod budget;
+pub mod field;
 pub mod flow;
 pub mod frames;
 pub mod grid;

@@ -19,6 +19,7 @@ pub mod velocity;
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
+use crate::field::Field;
 use crate::flow::{Flow, OnNodes};
 use crate::grid::tube::{self, Reach};
 use crate::grid::IndexToWorld;
@@ -149,24 +150,24 @@ impl SkinParams {
         let s = &self.speed;
         let out = |name, value, must| Err(SkinError::Parameter { name, value, must });
         for (name, v) in [
-            ("alpha", s.alpha),
-            ("beta", s.beta),
-            ("volume_gain", s.volume_gain),
-            ("area_gain", s.area_gain),
-            ("smoothing", self.smoothing),
+            (Field::Alpha, s.alpha),
+            (Field::Beta, s.beta),
+            (Field::VolumeGain, s.volume_gain),
+            (Field::AreaGain, s.area_gain),
+            (Field::Smooth, self.smoothing),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return out(name, v, "a non-negative number");
             }
         }
         if !(self.dx.is_finite() && self.dx > 0.0) {
-            return out("dx", self.dx, "a positive number");
+            return out(Field::VoxelSize, self.dx, "a positive number");
         }
         if !(self.band_width.is_finite() && self.band_width >= 2.0) {
-            return out("band_width", self.band_width, "at least 2 voxels");
+            return out(Field::BandWidth, self.band_width, "at least 2 voxels");
         }
         if !(self.safety > 0.0 && self.safety <= 1.0) {
-            return out("safety", self.safety, "in (0, 1]");
+            return out(Field::Safety, self.safety, "in (0, 1]");
         }
         Ok(())
     }
@@ -822,15 +823,16 @@ pub enum SkinError {
     Incompatible(String),
     /// The skin's blocks around a target would take more than the memory budget.
     #[error(
-        "the skin's band would take {} at voxels of {dx}, over the memory budget of {}: give a larger voxel size (or --max-memory)",
+        "the skin's band would take {} at voxels of {dx}, over the memory budget of {}: give a larger voxel size (or {})",
         crate::budget::size(*needed),
-        crate::budget::size(*budget)
+        crate::budget::size(*budget),
+        Field::MaxMemory
     )]
     OverBudget { needed: u64, budget: u64, dx: f32 },
-    /// A parameter out of its range ([`SkinParams::check`]); `name` is the field's.
+    /// A parameter out of its range ([`SkinParams::check`]).
     #[error("{name} must be {must}, got {value}")]
     Parameter {
-        name: &'static str,
+        name: Field,
         value: f32,
         must: &'static str,
     },

@@ -222,7 +222,7 @@ fn farm_refuses_what_it_cannot_cut() {
     let dir = scratch();
     let words = |s: &str| s.split(' ').map(String::from).collect::<Vec<_>>();
     for (args, what) in [
-        ("farm --chunks 4 -- info x.vdb", "skin` or `particles"),
+        ("farm --chunks 4 -- info x.vdb", "runs skin or particles"),
         (
             "farm --chunks 0 -- particles --particles P --radius 0.04 --out o.####.vdb",
             "--chunks",

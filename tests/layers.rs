@@ -10,6 +10,7 @@ use std::path::Path;
 /// The core: what a Python wheel or another program links without OpenVDB or files.
 const CORE: &[&str] = &[
     "budget",
+    "field",
     "flow",
     "grid",
     "mesh",

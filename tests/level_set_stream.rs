@@ -98,7 +98,7 @@ fn a_dense_block_is_checked() {
         .unwrap_err()
         .to_string();
     assert!(
-        error.contains("voxel size must be a positive number"),
+        error.contains("`spacing` must be a positive number"),
         "{error}"
     );
     // A NaN is refused by the frame, as in a file.
@@ -122,13 +122,13 @@ fn a_dense_fog_volume_is_read_at_its_iso() {
         (1.0 - (p.length() - 0.5) / 0.2).clamp(0.0, 1.0)
     });
     let grid = dense_grid(GridClass::FogVolume, ([n; 3], &values), dx, at(origin)).unwrap();
-    // A fog volume without its iso is refused, with the command's words.
+    // A fog volume without its iso is refused, the setting named as the library names it.
     let mut refused = LevelSetStream::start(spec()).unwrap();
     let error = refused
         .advance(frame(grid.clone()))
         .unwrap_err()
         .to_string();
-    assert!(error.contains("is not a level set: give --iso"), "{error}");
+    assert!(error.contains("is not a level set: give `iso`"), "{error}");
     let mut stream = LevelSetStream::start(LevelSetSpec {
         iso: Some(0.5),
         ..spec()

@@ -22,7 +22,7 @@ fn run_library(into: &Path) {
     // What a front end is told: the frames, each frame written with its measures, the end.
     let told = std::sync::Arc::new(std::sync::Mutex::new(Vec::<Report>::new()));
     let input = InputFrames::find(
-        "--particles",
+        activeskin::field::Field::Particles,
         &format!("{DATA}/data/splash/drop.####.ply"),
         Some((1, 4)),
     )
@@ -197,7 +197,7 @@ fn the_library_checks_parameters_and_warms_up() {
     };
     assert!(AnySkin::try_new(&sphere, good).is_ok());
     let refused = |params: SkinParams, field: &str| match AnySkin::try_new(&sphere, params).err() {
-        Some(SkinError::Parameter { name, .. }) => assert_eq!(name, field),
+        Some(SkinError::Parameter { name, .. }) => assert_eq!(name.name(), field),
         other => panic!("{field}: {other:?}"),
     };
     let mut p = good;
@@ -209,7 +209,7 @@ fn the_library_checks_parameters_and_warms_up() {
     let mut p = good;
     p.speed.volume_gain = f32::INFINITY;
     refused(p, "volume_gain");
-    refused(SkinParams { dx: 0.0, ..good }, "dx");
+    refused(SkinParams { dx: 0.0, ..good }, "voxel_size");
     refused(
         SkinParams {
             band_width: 1.0,
@@ -228,7 +228,7 @@ fn the_library_checks_parameters_and_warms_up() {
         .check()
         .unwrap_err()
         .to_string();
-    assert_eq!(message, "dx must be a positive number, got -1");
+    assert_eq!(message, "`voxel_size` must be a positive number, got -1");
 
     // The frame loop refuses a frame rate it cannot advance by.
     for bad in [0.0, -24.0, f64::NAN, f64::INFINITY] {

@@ -285,14 +285,20 @@ fn the_readme_is_short_and_every_link_resolves() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
     let lines = readme.lines().count();
-    assert!(lines <= 250, "README.md is {lines} lines: move details to docs/");
+    assert!(
+        lines <= 250,
+        "README.md is {lines} lines: move details to docs/"
+    );
     let mut pages = vec![root.join("README.md"), root.join("CHANGELOG.md")];
     for entry in std::fs::read_dir(root.join("docs")).unwrap() {
         pages.push(entry.unwrap().path());
     }
     let mut broken = Vec::new();
     let mut links = 0;
-    for page in pages.iter().filter(|p| p.extension().is_some_and(|e| e == "md")) {
+    for page in pages
+        .iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "md"))
+    {
         let text = std::fs::read_to_string(page).unwrap();
         for (at, _) in text.match_indices("](") {
             let rest = &text[at + 2..];

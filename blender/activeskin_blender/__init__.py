@@ -21,9 +21,7 @@ bl_info = {
 }
 
 import glob
-import math
 import os
-import re
 import sys
 import zipfile
 
@@ -71,8 +69,9 @@ def _one_line(error):
 
 
 def _frame_path(pattern, frame):
-    """A file of a frame pattern: `####` padded, `#` unpadded (as SPlisHSPlasH numbers)."""
-    return re.sub(r"#+", lambda m: str(frame).zfill(len(m.group())), pattern)
+    """A file of a frame pattern as the commands name it (`####`, `%04d` and `$F4` padded,
+    `#`, `$F` and `{}` unpadded as SPlisHSPlasH numbers); Blender's `//` made absolute."""
+    return os.fspath(_activeskin().frame_path(bpy.path.abspath(pattern), frame))
 
 
 def _cache_dir(settings):
@@ -282,7 +281,9 @@ class Bake:
             done += 1
         self.done = done
         fps = self.scene.render.fps / self.scene.render.fps_base
-        warmup = math.ceil(math.log(40) * fps / s.alpha) if s.alpha > 0 else done
+        # As a farm chunk warms up (the commands' --warmup auto); without attraction the
+        # skin never forgets its start, so from the first frame.
+        warmup = _activeskin().warmup_frames(s.alpha, fps) if s.alpha > 0 else done
         self.first = s.frame_start if done < s.frame_start else max(s.frame_start, done + 1 - warmup)
         self.frames = list(range(self.first, s.frame_end + 1)) if done < s.frame_end else []
         self.fps = fps
@@ -337,7 +338,7 @@ class Bake:
             self._write(frame, mesh)
             return True
         else:
-            path = bpy.path.abspath(_frame_path(s.pattern, frame))
+            path = _frame_path(s.pattern, frame)
             read = _activeskin().read_particles(path)
             positions, velocities, ids = read["positions"], read["velocities"], read["ids"]
         if not s.use_velocity:

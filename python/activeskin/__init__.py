@@ -11,82 +11,62 @@ A skin follows its target frame by frame, through the same frame loops as the co
 (3, dtype('uint32'))
 """
 
-import glob
 import os
-import re
 import warnings
 
 from ._activeskin import (
+    DEFAULT_ALPHA,
+    DEFAULT_FPS,
     HAS_VDB,
     LevelSetSkin,
     Mesh,
     ParticleSkin,
     __version__,
+    frame_path,
     memory_budget,
     read_particles,
+    sequence_frames,
     set_memory_budget,
+    warmup_frames,
 )
 
 if HAS_VDB:
     from ._activeskin import measure_velocity  # noqa: F401
 
 __all__ = [
+    "DEFAULT_ALPHA",
+    "DEFAULT_FPS",
     "HAS_VDB",
     "LevelSetSkin",
     "Mesh",
     "ParticleSkin",
     "__version__",
+    "frame_path",
     "memory_budget",
     "particles_sequence",
     "read_particles",
+    "sequence_frames",
     "set_memory_budget",
     "skin_for_sequence",
     "skin_sequence",
+    "warmup_frames",
 ] + (["measure_velocity"] if HAS_VDB else [])
 
-_NUMBER = re.compile(r"#+|%0?(\d*)d")
 
-
-def _frame_path(pattern, frame):
-    """A frame's file: ``####`` (or ``%04d``) padded to its width, ``#`` (or ``%d``) not."""
-
-    def number(m):
-        width = len(m.group()) if m.group().startswith("#") else int(m.group(1) or 1)
-        return str(frame).zfill(width) if frame >= 0 else "-" + str(-frame).zfill(width)
-
-    return _NUMBER.sub(number, os.fspath(pattern), count=1)
-
-
-def _frames_found(pattern):
-    pattern = os.fspath(pattern)
-    m = _NUMBER.search(pattern)
-    if m is None:
-        raise ValueError(f"pattern '{pattern}' has no frame number (#### or %04d)")
-    head, tail = pattern[: m.start()], pattern[m.end() :]
-    found = []
-    matcher = re.compile(re.escape(os.path.basename(head)) + r"(-?\d+)" + re.escape(tail) + "$")
-    for path in glob.glob(glob.escape(head) + "*" + glob.escape(tail)):
-        hit = matcher.match(os.path.basename(path)) if os.sep not in tail else None
-        if hit:
-            found.append(int(hit.group(1)))
-    return sorted(set(found))
-
-
-def _frame_range(pattern, frames, found):
-    if frames is None:
-        if not found:
-            raise ValueError(f"no files match '{os.fspath(pattern)}'")
-        frames = (found[0], found[-1])
-    first, last = frames
-    if last < first:
-        raise ValueError(f"the frame range {first}-{last} is empty")
-    return first, last
+def _frames(pattern, frames):
+    """The range, the frames found and each frame's file, as the commands find them: the
+    library's patterns (``####``, ``%04d``, ``$F4``, ``$F``, ``#``, ``{}``), or one file
+    held for every frame of ``frames``."""
+    first, last, found, held = sequence_frames(pattern, frames)
+    if held:
+        return first, last, found, lambda frame: os.fspath(pattern)
+    return first, last, found, lambda frame: frame_path(pattern, frame)
 
 
 def _make_folders(first, *patterns):
     for pattern in patterns:
         if pattern is not None:
-            folder = os.path.dirname(_frame_path(pattern, first))
+            folder = os.path.dirname(frame_path(pattern, first))
             if folder:
                 os.makedirs(folder, exist_ok=True)
 
@@ -94,25 +74,25 @@ def _make_folders(first, *patterns):
 def particles_sequence(pattern, radius, *, frames=None, mesh=None, progress=None,
                        use_velocity=True, **options):
     """The ``particles`` command as a function: skins the particle files of ``pattern``
-    (``####`` or ``%04d`` padded frame numbers, ``#`` unpadded as SPlisHSPlasH writes) over
+    (``####``, ``%04d`` or ``$F4`` padded frame numbers, ``#`` or ``$F`` unpadded as
+    SPlisHSPlasH writes) over
     ``frames`` (first, last; every frame found by default), writing each frame's mesh to
     the ``mesh`` pattern (OBJ or PLY by extension) when given, and calling
     ``progress(mesh)`` after each frame. ``options`` are ``ParticleSkin``'s (voxel_size,
     alpha, beta, fps, attributes, ...). Returns the number of frames skinned; the meshes
     are the command's, byte for byte.
     """
-    found = _frames_found(pattern)
-    first, last = _frame_range(pattern, frames, found)
+    first, last, found, path = _frames(pattern, frames)
     _make_folders(first, mesh)
     # The command holds the volume the sequence's first frame stands for, also on a run
     # of later frames.
     if found and found[0] < first and options.get("hold_volume", True):
-        start = read_particles(_frame_path(pattern, found[0]))
+        start = read_particles(path(found[0]))
         options["volume_reference"] = (found[0], start["positions"], start["radii"])
     skin = ParticleSkin(radius, first_frame=first, **options)
     count = 0
     for frame in range(first, last + 1):
-        read = read_particles(_frame_path(pattern, frame))
+        read = read_particles(path(frame))
         surface = skin.advance(
             read["positions"],
             velocities=read["velocities"] if use_velocity else None,
@@ -121,7 +101,7 @@ def particles_sequence(pattern, radius, *, frames=None, mesh=None, progress=None
             radii=read["radii"],
         )
         if mesh is not None:
-            surface.save(_frame_path(mesh, frame))
+            surface.save(frame_path(mesh, frame))
         if progress is not None:
             progress(surface)
         count += 1
@@ -152,7 +132,7 @@ def skin_for_sequence(pattern, *, frames, first_frame=None, grid=None, velocity=
         measured = measure_velocity(
             pattern, frames=(first, last), grid=grid,
             velocity=velocity if isinstance(velocity, str) else None,
-            fps=options.get("fps", 24.0), units=options.get("units", "auto"),
+            fps=options.get("fps", DEFAULT_FPS), units=options.get("units", "auto"),
             velocity_time=timing,
         )
         velocity_scale = 1.0
@@ -186,8 +166,7 @@ def skin_sequence(pattern, *, frames=None, mesh=None, out=None, progress=None, g
     command's frames, byte for byte. Needs a build with OpenVDB (``HAS_VDB``).
     """
     _need_vdb()
-    found = _frames_found(pattern)
-    first, last = _frame_range(pattern, frames, found)
+    first, last, found, path = _frames(pattern, frames)
     _make_folders(first, mesh, out)
     # The VDBs written hold the surface's velocity as grid v, as the command's --out.
     options.setdefault("velocity_grid", out is not None)
@@ -197,11 +176,11 @@ def skin_sequence(pattern, *, frames=None, mesh=None, out=None, progress=None, g
     )
     count = 0
     for frame in range(first, last + 1):
-        surface = skin.advance(_frame_path(pattern, frame), velocity, grid=grid)
+        surface = skin.advance(path(frame), velocity, grid=grid)
         if mesh is not None:
-            surface.save(_frame_path(mesh, frame))
+            surface.save(frame_path(mesh, frame))
         if out is not None:
-            skin.save_vdb(_frame_path(out, frame))
+            skin.save_vdb(frame_path(out, frame))
         if progress is not None:
             progress(surface)
         count += 1

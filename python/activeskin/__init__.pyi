@@ -7,6 +7,25 @@ import numpy.typing as npt
 __version__: str
 HAS_VDB: bool
 """Whether this build reads and writes VDB files (built with the `vdb` feature)."""
+DEFAULT_ALPHA: float
+"""The attraction rate α (1/s) the skins and the commands take when none is given."""
+DEFAULT_FPS: float
+"""The frame rate the skins and the commands take when none is given."""
+
+def frame_path(pattern: str | PathLike[str], frame: int) -> PathLike[str]:
+    """A frame's file in a pattern as the commands name it: ``####``, ``%04d`` and ``$F4``
+    padded, ``#``, ``$F`` and ``{}`` unpadded (SPlisHSPlasH's, splashsurf's)."""
+
+def sequence_frames(
+    pattern: str | PathLike[str], frames: tuple[int, int] | None = None
+) -> tuple[int, int, list[int], bool]:
+    """(first, last, found, held): the range (frames, else every frame found), the frames
+    on disk, and whether pattern is one file held for every frame (a file without a frame
+    number, frames given). ValueError as the commands refuse a sequence."""
+
+def warmup_frames(alpha: float = ..., fps: float = ...) -> int:
+    """The frames a farm chunk or a resumed bake warms up on, as --warmup auto:
+    ceil(ln(40)·fps/alpha), 23 at the defaults."""
 
 class Mesh:
     """One frame's surface; the arrays are handed over from Rust without a copy."""
@@ -32,7 +51,7 @@ class Mesh:
         stage: str | PathLike[str],
         frames: tuple[int, int],
         *,
-        fps: float = 24.0,
+        fps: float = ...,
         up: str = "y",
         meters_per_unit: float = 1.0,
     ) -> None:
@@ -49,12 +68,12 @@ class ParticleSkin:
         radius: float,
         *,
         voxel_size: float | None = None,
-        alpha: float = 4.0,
+        alpha: float = ...,
         beta: float | None = None,
         smooth: float | None = None,
-        smoothing_length: float = 2.0,
+        smoothing_length: float = ...,
         iso: float | None = None,
-        fps: float = 24.0,
+        fps: float = ...,
         velocities: bool = True,
         hold_volume: bool = True,
         attributes: Sequence[str] | None = None,
@@ -111,12 +130,12 @@ class LevelSetSkin:
         self,
         *,
         voxel_size: float | None = None,
-        alpha: float = 4.0,
+        alpha: float = ...,
         beta: float | None = None,
         smooth: float | None = None,
         volume_gain: float = 0.0,
         area_gain: float = 0.0,
-        fps: float = 24.0,
+        fps: float = ...,
         velocities: bool = True,
         velocity_time: str = "start",
         velocity_scale: float = 1.0,
@@ -193,12 +212,12 @@ def particles_sequence(
     progress: Callable[[Mesh], object] | None = None,
     use_velocity: bool = True,
     voxel_size: float | None = None,
-    alpha: float = 4.0,
+    alpha: float = ...,
     beta: float | None = None,
     smooth: float | None = None,
-    smoothing_length: float = 2.0,
+    smoothing_length: float = ...,
     iso: float | None = None,
-    fps: float = 24.0,
+    fps: float = ...,
     velocities: bool = True,
     hold_volume: bool = True,
     attributes: Sequence[str] | None = None,
@@ -236,9 +255,9 @@ def skin_sequence(
     velocity_scale: float | str = "auto",
     velocity_time: str = "auto",
     voxel_size: float | None = None,
-    alpha: float = 4.0,
+    alpha: float = ...,
     beta: float | None = None,
-    fps: float = 24.0,
+    fps: float = ...,
     velocities: bool = True,
     iso: float | None = None,
     units: str = "auto",
@@ -255,7 +274,7 @@ def measure_velocity(
     frames: tuple[int, int] | None = None,
     grid: str | None = None,
     velocity: str | None = None,
-    fps: float = 24.0,
+    fps: float = ...,
     units: str = "auto",
     velocity_time: str | None = None,
 ) -> dict[str, object] | None:

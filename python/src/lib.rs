@@ -6,7 +6,9 @@
 
 use std::time::Duration;
 
+use activeskin::field::{spell, Field};
 use activeskin::flow::Timing;
+use activeskin::frames::DEFAULT_FPS;
 use activeskin::frames::{
     dense_grid, write_usd_frame, AttributeChoice, FrameError, FrameStream, FrameSurface,
     LevelSetFrame, LevelSetSpec, LevelSetStream, ParticleInput, ParticleStream, StreamSpec,
@@ -16,9 +18,11 @@ use activeskin::io::mesh::{write_with_values, VertexValues};
 use activeskin::mesh::Mesh as SkinMesh;
 use activeskin::particles::{Attribute, Particles};
 use activeskin::render::Up;
+use activeskin::skin::speed::DEFAULT_ALPHA;
 use activeskin::skin::Physics;
 use activeskin::skin::SkinError;
 use activeskin::target::fluid_iso;
+use activeskin::target::DEFAULT_SMOOTHING_LENGTH;
 use activeskin::volume::{GridClass, GridData, VectorGrid};
 use glam::Vec3;
 use numpy::ndarray::{Array1, Array2};
@@ -34,10 +38,24 @@ fn value_error(e: FrameError) -> PyErr {
     match &e {
         // Refused before allocating: Python's own word for it, which a caller can catch.
         FrameError::OverBudget(_) | FrameError::Skin(SkinError::OverBudget { .. }) => {
-            PyMemoryError::new_err(e.to_string())
+            PyMemoryError::new_err(said(&e))
         }
-        _ => PyValueError::new_err(e.to_string()),
+        _ => PyValueError::new_err(said(&e)),
     }
+}
+
+/// A library message as Python says it: each field it names as the argument that sets it
+/// (`radius=`), not as the command's flag.
+fn said(message: &impl ToString) -> String {
+    spell(&message.to_string(), |field| match field {
+        Field::TargetUnits => "units=".into(),
+        Field::NoVelocity => "velocities=False".into(),
+        Field::MaxMemory => "activeskin.set_memory_budget()".into(),
+        Field::Target | Field::Particles => "pattern".into(),
+        Field::Usd => "the stage".into(),
+        Field::ShotFrames => "frames=".into(),
+        other => format!("{}=", other.name()),
+    })
 }
 
 /// What `object` is, for a message: its shape when it has one, else its type.
@@ -301,13 +319,13 @@ impl Mesh {
             attributes: &attributes,
         };
         py.detach(|| write_with_values(&mesh, values, &path))
-            .map_err(|e| pyo3::exceptions::PyOSError::new_err(e.to_string()))
+            .map_err(|e| pyo3::exceptions::PyOSError::new_err(said(&e)))
     }
 
     /// Writes the mesh as its frame of the USD shot `stage` (`.usda`) over `frames`
     /// (first, last), as the command's `--usd` does: the frame's layer beside the stage,
     /// and the stage, the same for every frame of the shot.
-    #[pyo3(signature = (stage, frames, *, fps=24.0, up="y", meters_per_unit=1.0))]
+    #[pyo3(signature = (stage, frames, *, fps=DEFAULT_FPS, up="y", meters_per_unit=1.0))]
     fn save_usd(
         &self,
         py: Python<'_>,
@@ -339,7 +357,7 @@ impl Mesh {
         py.detach(|| write_usd_frame(&spec, self.frame, (fps, up), &mesh, values))
             .map_err(|e| match e {
                 FrameError::Usage(_) => value_error(e),
-                _ => pyo3::exceptions::PyOSError::new_err(e.to_string()),
+                _ => pyo3::exceptions::PyOSError::new_err(said(&e)),
             })
     }
 
@@ -445,7 +463,7 @@ impl<T: Send + 'static> Stepper<T> {
         py.detach(|| {
             activeskin::frames::write_skin_vdb(path, *frame, level_set, velocities.as_ref())
         })
-        .map_err(|e| pyo3::exceptions::PyOSError::new_err(e.to_string()))
+        .map_err(|e| pyo3::exceptions::PyOSError::new_err(said(&e)))
     }
 
     #[cfg(not(feature = "vdb"))]
@@ -487,7 +505,7 @@ struct ParticleSkin {
 #[pymethods]
 impl ParticleSkin {
     #[new]
-    #[pyo3(signature = (radius, *, voxel_size=None, alpha=4.0, beta=None, smooth=None, smoothing_length=2.0, iso=None, fps=24.0, velocities=true, hold_volume=true, attributes=None, first_frame=1, ignore_radii=false, volume_reference=None, velocity_grid=false))]
+    #[pyo3(signature = (radius, *, voxel_size=None, alpha=DEFAULT_ALPHA, beta=None, smooth=None, smoothing_length=DEFAULT_SMOOTHING_LENGTH, iso=None, fps=DEFAULT_FPS, velocities=true, hold_volume=true, attributes=None, first_frame=1, ignore_radii=false, volume_reference=None, velocity_grid=false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         radius: f32,
@@ -789,7 +807,7 @@ fn vdb_frame(
 /// "mid") and `note` (the command's line); None when the files hold no velocity.
 #[cfg(feature = "vdb")]
 #[pyfunction]
-#[pyo3(signature = (pattern, *, frames=None, grid=None, velocity=None, fps=24.0, units="auto", velocity_time=None))]
+#[pyo3(signature = (pattern, *, frames=None, grid=None, velocity=None, fps=DEFAULT_FPS, units="auto", velocity_time=None))]
 #[allow(clippy::too_many_arguments)]
 fn measure_velocity<'py>(
     py: Python<'py>,
@@ -816,7 +834,7 @@ fn measure_velocity<'py>(
     let spec = pattern.to_string_lossy().into_owned();
     let settled = py
         .detach(|| {
-            let input = InputFrames::find("pattern", &spec, frames)?;
+            let input = InputFrames::find(Field::Target, &spec, frames)?;
             let mut measured = VelocityInput {
                 source: velocity.map_or(VelocitySource::Auto, VelocitySource::Named),
                 files: None,
@@ -831,7 +849,7 @@ fn measure_velocity<'py>(
     let out = PyDict::new(py);
     out.set_item("scale", estimate.scale)?;
     out.set_item("timing", estimate.timing.name())?;
-    out.set_item("note", note)?;
+    out.set_item("note", said(&note))?;
     Ok(Some(out))
 }
 
@@ -856,7 +874,7 @@ struct LevelSetSkin {
 #[pymethods]
 impl LevelSetSkin {
     #[new]
-    #[pyo3(signature = (*, voxel_size=None, alpha=4.0, beta=None, smooth=None, volume_gain=0.0, area_gain=0.0, fps=24.0, velocities=true, velocity_time="start", velocity_scale=1.0, iso=None, units="auto", first_frame=1, seed=true, init=None, spacing=None, origin=(0.0, 0.0, 0.0), grid=None, velocity_grid=false))]
+    #[pyo3(signature = (*, voxel_size=None, alpha=DEFAULT_ALPHA, beta=None, smooth=None, volume_gain=0.0, area_gain=0.0, fps=DEFAULT_FPS, velocities=true, velocity_time="start", velocity_scale=1.0, iso=None, units="auto", first_frame=1, seed=true, init=None, spacing=None, origin=(0.0, 0.0, 0.0), grid=None, velocity_grid=false))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -990,7 +1008,7 @@ impl LevelSetSkin {
 fn read_particles(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Bound<'_, PyDict>> {
     let particles = py
         .detach(|| activeskin::io::particles::read(&path))
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        .map_err(|e| PyValueError::new_err(said(&e)))?;
     let out = PyDict::new(py);
     out.set_item("positions", vectors_array(py, particles.positions))?;
     out.set_item(
@@ -1026,6 +1044,39 @@ fn set_memory_budget(gb: f64) -> PyResult<()> {
     Ok(())
 }
 
+/// A sequence's frames as the commands find them: `(first, last, found, held)` — the range
+/// (`frames`, else every frame found), the frames on disk, and whether `pattern` is one
+/// file held for every frame (a file without a frame number, with `frames` given).
+#[pyfunction]
+#[pyo3(signature = (pattern, frames=None))]
+fn sequence_frames(
+    pattern: std::path::PathBuf,
+    frames: Option<(i64, i64)>,
+) -> PyResult<(i64, i64, Vec<i64>, bool)> {
+    let input =
+        activeskin::frames::InputFrames::find(Field::Target, &pattern.to_string_lossy(), frames)
+            .map_err(value_error)?;
+    let (first, last) = input.range;
+    Ok((first, last, input.existing, input.pattern.is_held()))
+}
+
+/// A frame's file in `pattern` (`####`, `%04d`, `$F4`, `$F`, `#` or `{}`), as the commands
+/// name it.
+#[pyfunction]
+fn frame_path(pattern: std::path::PathBuf, frame: i64) -> PyResult<std::path::PathBuf> {
+    let pattern = activeskin::sequence::FramePattern::parse(&pattern.to_string_lossy())
+        .map_err(|e| PyValueError::new_err(said(&e)))?;
+    Ok(pattern.path(frame))
+}
+
+/// The frames a farm chunk or a resumed bake warms up on before its first, as the
+/// commands' `--warmup auto`: enough for the start to fade to 1/40 (ln(40)·fps/α).
+#[pyfunction]
+#[pyo3(signature = (alpha=DEFAULT_ALPHA, fps=DEFAULT_FPS))]
+fn warmup_frames(alpha: f32, fps: f64) -> i64 {
+    activeskin::frames::auto_warmup(f64::from(alpha), fps)
+}
+
 /// The most memory a frame may take, in GB ([`set_memory_budget`]).
 #[pyfunction]
 fn memory_budget() -> f64 {
@@ -1037,6 +1088,11 @@ fn _activeskin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_particles, m)?)?;
     m.add_function(wrap_pyfunction!(set_memory_budget, m)?)?;
     m.add_function(wrap_pyfunction!(memory_budget, m)?)?;
+    m.add_function(wrap_pyfunction!(sequence_frames, m)?)?;
+    m.add_function(wrap_pyfunction!(frame_path, m)?)?;
+    m.add_function(wrap_pyfunction!(warmup_frames, m)?)?;
+    m.add("DEFAULT_ALPHA", DEFAULT_ALPHA)?;
+    m.add("DEFAULT_FPS", DEFAULT_FPS)?;
     #[cfg(feature = "vdb")]
     m.add_function(wrap_pyfunction!(measure_velocity, m)?)?;
     m.add_class::<ParticleSkin>()?;

@@ -159,18 +159,23 @@ def test_smooth_is_the_commands(binary, tmp_path):
         mesh.save(tmp_path / "m.ply")
         assert (tmp_path / "m.ply").read_bytes() == (cli / f"m.{f:04d}.ply").read_bytes()
         assert not np.array_equal(mesh.vertices, other.vertices)
-    with pytest.raises(ValueError, match="smoothing must be a non-negative number"):
+    with pytest.raises(ValueError, match="smooth= must be a non-negative number"):
         activeskin.ParticleSkin(R, smooth=-1.0)
 
 
-def test_bad_arguments_raise_value_error_with_the_commands_message():
+def test_bad_arguments_raise_value_error_naming_the_argument():
+    """The library's words, each setting said as the argument that sets it (issue 50):
+    never the command's flag."""
     for kwargs, text in [
-        (dict(radius=-1.0), "--radius must be a positive number"),
-        (dict(radius=R, voxel_size=1.0), "coarser than the particles' kernel"),
-        (dict(radius=R, fps=0.0), "frame rate must be a positive number"),
+        (dict(radius=-1.0), "radius= must be a positive number"),
+        (dict(radius=R, voxel_size=1.0), "voxel_size= 1 is coarser than the particles' kernel"),
+        (dict(radius=R, fps=0.0), "fps= must be a positive number"),
+        (dict(radius=R, alpha=-1.0), "alpha= must be a non-negative number"),
+        (dict(radius=R, smoothing_length=0.0), "smoothing_length= must be a positive number"),
     ]:
-        with pytest.raises(ValueError, match=text.replace("(", r"\(")):
+        with pytest.raises(ValueError, match=text.replace("(", r"\(")) as raised:
             activeskin.ParticleSkin(**kwargs)
+        assert "--" not in str(raised.value), raised.value
     skin = activeskin.ParticleSkin(R, attributes=["age"])
     p, ids, _ = ball(1)
     with pytest.raises(ValueError, match=r"\(n, 3\)"):
@@ -272,8 +277,36 @@ def test_particles_sequence_is_the_command_with_a_progress_callback(binary, tmp_
         assert (tmp_path / "py" / f"m.{f:04d}.ply").read_bytes() == (cli / f"m.{f:04d}.ply").read_bytes(), f
     # Every frame found when no range is given.
     assert activeskin.particles_sequence(SPLASH / "drop.####.ply", 0.04, alpha=48) == 36
-    with pytest.raises(ValueError, match="no files match"):
+    with pytest.raises(ValueError, match="no file matches pattern"):
         activeskin.particles_sequence(tmp_path / "none.####.ply", 0.04)
+
+
+def test_sequences_and_defaults_are_the_librarys(binary, tmp_path):
+    """Issue 50: patterns, frames found, the warm-up and the defaults come from the library,
+    as the commands have them: $F4 and {} too, which the package's own parser lacked."""
+    assert os.fspath(activeskin.frame_path("out/s.$F4.ply", 7)) == "out/s.0007.ply"
+    assert os.fspath(activeskin.frame_path("p_{}.vtk", 12)) == "p_12.vtk"
+    assert os.fspath(activeskin.frame_path("p_#.vtk", -3)) == "p_-3.vtk"
+    first, last, found, held = activeskin.sequence_frames(SPLASH / "drop.$F4.ply")
+    assert (first, last, found, held) == (1, 36, list(range(1, 37)), False)
+    assert activeskin.sequence_frames(SPLASH / "drop.0002.ply", (5, 9))[:2] == (5, 9)
+    assert activeskin.sequence_frames(SPLASH / "drop.0002.ply", (5, 9))[3]
+    with pytest.raises(ValueError, match="is empty"):
+        activeskin.sequence_frames(SPLASH / "drop.####.ply", (9, 5))
+    with pytest.raises(ValueError, match="frames="):
+        activeskin.sequence_frames(SPLASH / "drop.0002.ply")
+    cli = tmp_path / "cli"
+    subprocess.run(
+        [binary, "particles", "--particles", str(SPLASH / "drop.####.ply"), "--radius", "0.04",
+         "--alpha", "48", "--frames", "1-3", "--mesh", str(cli / "m.####.ply"), "-q"],
+        check=True,
+    )
+    activeskin.particles_sequence(SPLASH / "drop.$F4.ply", 0.04, alpha=48, frames=(1, 3),
+                                  mesh=tmp_path / "py" / "m.$F4.ply")
+    for f in range(1, 4):
+        assert (tmp_path / "py" / f"m.{f:04d}.ply").read_bytes() == (cli / f"m.{f:04d}.ply").read_bytes()
+    assert activeskin.DEFAULT_ALPHA == 4.0 and activeskin.DEFAULT_FPS == 24.0
+    assert activeskin.warmup_frames() == 23 and activeskin.warmup_frames(48.0, 24.0) == 2
 
 
 # Level sets: LevelSetSkin and skin_sequence.
@@ -343,7 +376,7 @@ def test_level_set_errors_are_value_errors_with_the_commands_message(tmp_path):
         activeskin.LevelSetSkin(velocity_time="auto")
     with pytest.raises(ValueError, match="units must be"):
         activeskin.LevelSetSkin(units="inches")
-    with pytest.raises(ValueError, match="frame rate must be a positive number"):
+    with pytest.raises(ValueError, match="fps= must be a positive number"):
         activeskin.LevelSetSkin(fps=-1)
     skin = activeskin.LevelSetSkin()
     with pytest.raises(ValueError, match="needs its voxel size: give spacing="):
@@ -437,7 +470,10 @@ def test_skin_sequence_measures_the_velocity_as_the_command_does(binary, tmp_pat
     )
     measured = activeskin.measure_velocity(pattern)
     assert measured is not None and measured["scale"] is not None, measured
-    assert measured["note"] in run.stderr, (measured["note"], run.stderr)
+    # The command's note, its settings said as Python's arguments.
+    assert "velocity_scale=, velocity_time= to override" in measured["note"], measured["note"]
+    said = measured["note"].replace("velocity_scale=, velocity_time=", "--velocity-scale, --velocity-time")
+    assert said in run.stderr, (measured["note"], run.stderr)
     assert activeskin.skin_sequence(pattern, mesh=tmp_path / "py" / "m.####.ply") == 8
     for f in range(1, 9):
         assert (tmp_path / "py" / f"m.{f:04d}.ply").read_bytes() == (tmp_path / "cli" / f"m.{f:04d}.ply").read_bytes(), f

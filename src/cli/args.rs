@@ -133,19 +133,10 @@ impl PhysicsArgs {
     }
 
     fn checked(&self, params: SkinParams) -> anyhow::Result<SkinParams> {
-        if activeskin::frames::check_fps(self.fps).is_err() {
-            usage!("--fps must be a positive number");
-        }
-        // The library checks; the message names the option.
+        activeskin::frames::check_fps(self.fps)?;
+        // The library checks; its message names the field, said as a flag when printed.
         params.check().map_err(|e| match e {
-            SkinError::Parameter { name, value, must } => {
-                let flag = match name {
-                    "dx" => "--voxel-size".to_string(),
-                    "smoothing" => "--smooth".to_string(),
-                    other => format!("--{}", other.replace('_', "-")),
-                };
-                super::bad_usage(format!("{flag} must be {must}, got {value}"))
-            }
+            SkinError::Parameter { .. } => super::bad_usage(e.to_string()),
             other => other.into(),
         })?;
         Ok(params)

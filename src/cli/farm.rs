@@ -51,7 +51,7 @@ pub fn run(args: &FarmArgs) -> anyhow::Result<()> {
     let shot = match &cli.command {
         Command::Skin(a) => skin::shot(a)?,
         Command::Particles(a) => particles::shot(a)?,
-        _ => usage!("farm runs `skin` or `particles`: activeskin farm --chunks K -- skin ARGS..."),
+        _ => usage!("farm runs skin or particles: activeskin farm --chunks K -- skin ARGS..."),
     };
     if shot.physics.warmup.is_some() {
         usage!("give --warmup to farm, not to the command it runs");

@@ -33,7 +33,7 @@ pub fn run(files: &[PathBuf]) -> anyhow::Result<()> {
         (1, 1) => anyhow::bail!("{}", failures[0]),
         (n, _) => {
             for failure in &failures {
-                eprintln!("activeskin: error: {failure}");
+                super::note(&format!("error: {failure}"));
             }
             anyhow::bail!("{n} of {} files could not be used", files.len())
         }

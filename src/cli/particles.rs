@@ -1,6 +1,7 @@
 //! `activeskin particles --particles PATTERN --radius R [...]`: a skin dressed on a
 //! particle sequence (paper §6.1), through the same frame loop and outputs as `skin`.
 
+use activeskin::field::Field;
 use activeskin::flow::Timing;
 use activeskin::frames::{AttributeChoice, OutputSpec, Outputs, ParticleInput, ParticleRun};
 use activeskin::target::{fluid_iso, DEFAULT_SMOOTHING_LENGTH};
@@ -91,7 +92,7 @@ fn iso_help() -> String {
 }
 
 pub fn shot(args: &ParticlesArgs) -> anyhow::Result<Shot<'_>> {
-    let input = input_frames("--particles", &args.particles, args.frames.as_deref())?;
+    let input = input_frames(Field::Particles, &args.particles, args.frames.as_deref())?;
     Ok(Shot {
         range: input.range,
         physics: &args.physics,
@@ -123,7 +124,7 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
         ParticleTiming::Start => Timing::Start,
         ParticleTiming::Mid => Timing::Mid,
     };
-    let mut input = input_frames("--particles", &args.particles, args.frames.as_deref())?;
+    let mut input = input_frames(Field::Particles, &args.particles, args.frames.as_deref())?;
     let write_from = input.warm_up(args.physics.warmup_frames()?);
     let params = args
         .physics
@@ -140,7 +141,7 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
         side_outputs: particles
             .density_out
             .iter()
-            .map(|p| ("--density-out", p.clone()))
+            .map(|p| (activeskin::field::Field::DensityOut, p.clone()))
             .collect(),
         ..args.outputs.spec()?
     };
@@ -160,7 +161,7 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
     };
     run.run(&mut outputs, &mut |line| {
         if !quiet {
-            eprintln!("activeskin: {line}");
+            super::note(&line);
         }
     })?;
     Ok(())

@@ -1,6 +1,7 @@
 //! `activeskin skin --target PATTERN --out PATTERN [...]`: a skin dressed on a VDB target
 //! sequence.
 
+use activeskin::field::Field;
 use std::path::PathBuf;
 
 use activeskin::flow::{Flow, Timing};
@@ -76,7 +77,7 @@ pub fn parse_frames(spec: &str) -> anyhow::Result<(i64, i64)> {
 }
 
 /// The sequence given as `flag`, over `--frames` or every frame found.
-pub fn input_frames(flag: &str, spec: &str, frames: Option<&str>) -> anyhow::Result<InputFrames> {
+pub fn input_frames(flag: Field, spec: &str, frames: Option<&str>) -> anyhow::Result<InputFrames> {
     let range = frames.map(parse_frames).transpose()?;
     Ok(InputFrames::find(flag, spec, range)?)
 }
@@ -177,7 +178,7 @@ fn settle_scale(
     let settled = velocity.settle_scale(input, target, args.physics.fps, timing)?;
     Ok(settled.map(|(estimate, note)| {
         if !args.outputs.quiet {
-            eprintln!("activeskin: {note}");
+            super::note(&note);
         }
         estimate
     }))
@@ -187,7 +188,7 @@ fn settle_scale(
 /// make every chunk read the shot alike (the velocity scale measured once, on the shot's
 /// first frames, not on each chunk's).
 pub fn shot(args: &SkinArgs) -> anyhow::Result<Shot<'_>> {
-    let input = input_frames("--target", &args.target, args.frames.as_deref())?;
+    let input = input_frames(Field::Target, &args.target, args.frames.as_deref())?;
     let (mut velocity, auto_scale) = args.velocity.input()?;
     let mut fixed = Vec::new();
     let estimate = if auto_scale {
@@ -221,7 +222,7 @@ fn velocity_timing(args: &SkinArgs, estimate: Option<&ScaleEstimate>) -> Timing 
 }
 
 pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
-    let mut input = input_frames("--target", &args.target, args.frames.as_deref())?;
+    let mut input = input_frames(Field::Target, &args.target, args.frames.as_deref())?;
     let write_from = input.warm_up(args.physics.warmup_frames()?);
     let range = input.range;
     let (mut velocity, auto_scale) = args.velocity.input()?;
@@ -240,12 +241,12 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
         let TargetRead { target, note, .. } = read(&path)?;
         // Said once: every frame of a cache is in the same units.
         if let Some(line) = note.filter(|_| !units_noted && !quiet) {
-            eprintln!("activeskin: {line}");
+            super::note(&line);
             units_noted = true;
         }
         let mut note = |line: String| {
             if !noted && !quiet {
-                eprintln!("activeskin: {line}");
+                super::note(&line);
             }
             noted = true;
         };

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 
 use super::FrameError;
+use crate::field::Field;
 use crate::grid::REACH_VOXELS;
 use crate::io::particles;
 use crate::particles::{motion::frame_velocities, Attribute, Particles};
@@ -53,16 +54,23 @@ impl InputFrames {
         first
     }
 
-    /// The sequence given as `flag` (e.g. `--target`); the range is `frames`, or every
-    /// frame found.
+    /// The sequence given as `field` ([`Field::Target`], [`Field::Particles`]); the range
+    /// is `frames`, or every frame found.
     /// A file without a frame number is held for every frame of `frames`, which must be
     /// given (a static target: a shape to smooth with tension, a morph's end).
-    pub fn find(flag: &str, spec: &str, frames: Option<(i64, i64)>) -> Result<Self, FrameError> {
+    pub fn find(flag: Field, spec: &str, frames: Option<(i64, i64)>) -> Result<Self, FrameError> {
+        if let Some((a, b)) = frames.filter(|(a, b)| a > b) {
+            return Err(FrameError::Usage(format!(
+                "{} {a}-{b} is empty: the first frame comes after the last",
+                Field::Frames
+            )));
+        }
         let pattern = match FramePattern::parse(spec) {
             Err(PatternError::NoFrameNumber(_)) if Path::new(spec).is_file() => {
                 let Some((a, b)) = frames else {
                     return Err(FrameError::Usage(format!(
-                        "{flag} '{spec}' is one file, not a sequence: give --frames FIRST-LAST to hold it that long"
+                        "{flag} '{spec}' is one file, not a sequence: give {} FIRST-LAST to hold it that long",
+                        Field::Frames
                     )));
                 };
                 return Ok(InputFrames {
@@ -121,8 +129,9 @@ impl InputFrames {
                 format!("{}: missing, and no earlier target to hold", path.display())
             }
             _ => format!(
-                "{}: frame {frame} of the target is missing (--hold-missing keeps the last target)",
-                path.display()
+                "{}: frame {frame} of the target is missing ({} keeps the last target)",
+                path.display(),
+                Field::HoldMissing
             ),
         }))
     }
@@ -230,25 +239,26 @@ impl ParticleInput {
     /// the skin takes the shape of the voxels (a ball of radius 0.1 at `--voxel-size
     /// 1e4` became a blob of 6·10¹⁰ m³).
     pub fn check(&self) -> Result<(), FrameError> {
-        let positive = |name: &str, v: f32| match v.is_finite() && v > 0.0 {
+        let positive = |name: Field, v: f32| match v.is_finite() && v > 0.0 {
             true => Ok(()),
             false => Err(FrameError::Usage(format!(
                 "{name} must be a positive number, got {v}"
             ))),
         };
-        positive("--radius", self.radius)?;
-        positive("--smoothing-length", self.smoothing_length)?;
+        positive(Field::Radius, self.radius)?;
+        positive(Field::SmoothingLength, self.smoothing_length)?;
         // Before the iso, which is NaN past it.
         if self.smoothing_length > MAX_SMOOTHING_LENGTH {
             return Err(FrameError::Usage(format!(
-                "--smoothing-length {} is beyond {MAX_SMOOTHING_LENGTH} radii (some 17 000 neighbours a particle)",
+                "{} {} is beyond {MAX_SMOOTHING_LENGTH} radii (some 17 000 neighbours a particle)",
+                Field::SmoothingLength,
                 self.smoothing_length
             )));
         }
-        positive("--iso", self.iso)?;
-        positive("--voxel-size", self.dx)?;
+        positive(Field::Iso, self.iso)?;
+        positive(Field::VoxelSize, self.dx)?;
         // Areas and tensions (β ∝ Δx²) must stay finite in 32-bit floats.
-        for (name, v) in [("--radius", self.radius), ("--voxel-size", self.dx)] {
+        for (name, v) in [(Field::Radius, self.radius), (Field::VoxelSize, self.dx)] {
             if v > MAX_LENGTH {
                 return Err(FrameError::Usage(format!(
                     "{name} {v} is beyond {MAX_LENGTH:e} world units: 32-bit floats cannot hold the areas of such voxels"
@@ -257,16 +267,18 @@ impl ParticleInput {
         }
         if let Some(k) = self.velocity_scale.filter(|k| !k.is_finite()) {
             return Err(FrameError::Usage(format!(
-                "--velocity-scale must be a number, got {k}"
+                "{} must be a number, got {k}",
+                Field::VelocityScale
             )));
         }
         if cfg!(not(feature = "vdb")) && self.density_out.is_some() {
-            return Err(FrameError::Usage("--density-out writes VDB fog volumes: this activeskin was built without OpenVDB (the `vdb` feature)".into()));
+            return Err(FrameError::Usage(format!("{} writes VDB fog volumes: this activeskin was built without OpenVDB (the `vdb` feature)", Field::DensityOut)));
         }
         let support = 2.0 * self.smoothing_length * self.radius;
         if self.dx > support {
             return Err(FrameError::Usage(format!(
-                "--voxel-size {} is coarser than the particles' kernel (support {support}): at most that; the default, radius/2, resolves them",
+                "{} {} is coarser than the particles' kernel (support {support}): at most that; the default, radius/2, resolves them",
+                Field::VoxelSize,
                 self.dx
             )));
         }
@@ -362,12 +374,14 @@ impl ParticleInput {
         let budget = crate::budget::bytes();
         let grid = DensityGrid::rasterize_within(&density, self.dx, budget).map_err(|needed| {
             FrameError::OverBudget(format!(
-                "{}: the particles' density would take {} at voxels of {} (kernels of {} across), over the memory budget of {}: give a larger --voxel-size (or --max-memory)",
+                "{}: the particles' density would take {} at voxels of {} (kernels of {} across), over the memory budget of {}: give a larger {} (or {})",
                 path.display(),
                 crate::budget::size(needed),
                 self.dx,
                 2.0 * support * self.radius,
-                crate::budget::size(budget)
+                crate::budget::size(budget),
+                Field::VoxelSize,
+                Field::MaxMemory
             ))
         })?;
         // The fog volume (OpenVDB only: check() refuses --density-out without it).

@@ -8,6 +8,7 @@ use std::path::Path;
 use rayon::prelude::*;
 
 use super::FrameError;
+use crate::field::Field;
 use crate::target::{FogTarget, LevelSetTarget, Target};
 use crate::volume::{units, GridClass, GridData, Transform};
 
@@ -52,14 +53,16 @@ pub fn target_from_grid(
         (_, Some(iso)) if iso.is_finite() => Box::new(FogTarget::new(&data, iso)),
         (_, Some(iso)) => {
             return Err(FrameError::Usage(format!(
-                "--iso must be a number, got {iso}"
+                "{} must be a number, got {iso}",
+                Field::Iso
             )))
         }
         (_, None) => {
             return Err(FrameError::Usage(format!(
-                "{}: grid '{}' is not a level set: give --iso, the density of its surface",
+                "{}: grid '{}' is not a level set: give {}, the density of its surface",
                 path.display(),
-                data.name
+                data.name,
+                Field::Iso
             )))
         }
     };
@@ -90,15 +93,17 @@ pub(super) fn to_world_units(data: &mut GridData, units: TargetUnits) -> Option<
             Some(k) if ratio(k * f64::from(dx)) => (
                 dx,
                 Some(format!(
-                    "grid '{name}': distances in voxels (|∇φ| {k:.1} per world unit, Δx = {dx}); rescaled to world units (--target-units world keeps them)"
+                    "grid '{name}': distances in voxels (|∇φ| {k:.1} per world unit, Δx = {dx}); rescaled to world units ({} world keeps them)",
+                    Field::TargetUnits
                 )),
             ),
             Some(k) => (
                 (1.0 / k) as f32,
                 Some(format!(
-                    "grid '{name}': |∇φ| is {} per world unit, not 1; distances rescaled by {} (--target-units world keeps them)",
+                    "grid '{name}': |∇φ| is {} per world unit, not 1; distances rescaled by {} ({} world keeps them)",
                     readable(k),
-                    readable(1.0 / k)
+                    readable(1.0 / k),
+                    Field::TargetUnits
                 )),
             ),
             None => (1.0, None),
@@ -213,7 +218,8 @@ pub fn dense_grid(
     }
     if !(spacing.is_finite() && spacing > 0.0) {
         return Err(FrameError::Usage(format!(
-            "the voxel size must be a positive number, got {spacing}"
+            "{} must be a positive number, got {spacing}",
+            Field::Spacing
         )));
     }
     let (name, outside) = match class {

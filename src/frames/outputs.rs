@@ -9,6 +9,7 @@ use std::time::Instant;
 use hashbrown::HashMap;
 
 use super::FrameError;
+use crate::field::Field;
 use crate::grid::Aabb;
 use crate::io::usd;
 use crate::render::{self, Up, View};
@@ -76,7 +77,7 @@ pub struct OutputSpec {
     pub reads: Vec<FramePattern>,
     /// Other files the run writes each frame (the particles' density), with the option
     /// that names them: kept apart from the outputs and the inputs as the outputs are.
-    pub side_outputs: Vec<(&'static str, FramePattern)>,
+    pub side_outputs: Vec<(Field, FramePattern)>,
     /// The surface's velocity, for motion blur, in the outputs that hold one: per vertex
     /// in PLY meshes and USD shots, as the vector grid `v` beside the level set in `--out`
     /// VDBs.
@@ -165,16 +166,21 @@ impl Outputs {
     pub fn new(spec: &OutputSpec, (first, last): (i64, i64)) -> Result<Self, FrameError> {
         let usage = |m: String| Err(FrameError::Usage(m));
         if let Some(out) = &spec.out {
-            require_extension("--out", out, "skin level sets (VDB)", &["vdb"])?;
+            require_extension(Field::Out, out, "skin level sets (VDB)", &["vdb"])?;
         }
         for (flag, pattern) in &spec.side_outputs {
-            require_extension(flag, pattern, "VDB fog volumes", &["vdb"])?;
+            require_extension(*flag, pattern, "VDB fog volumes", &["vdb"])?;
         }
         if let Some(mesh) = &spec.mesh {
-            require_extension("--mesh", mesh, "meshes", crate::io::mesh::EXTENSIONS)?;
+            require_extension(Field::Mesh, mesh, "meshes", crate::io::mesh::EXTENSIONS)?;
         }
         if let Some((render, _)) = &spec.render {
-            require_extension("--render", render, "renders", crate::io::image::EXTENSIONS)?;
+            require_extension(
+                Field::Render,
+                render,
+                "renders",
+                crate::io::image::EXTENSIONS,
+            )?;
         }
         let (out, mesh) = (spec.out.clone(), spec.mesh.clone());
         let render = spec.render.clone().map(|(p, size)| (p, size, None));
@@ -189,19 +195,28 @@ impl Outputs {
             && usd.is_none()
             && spec.surfaces.is_none();
         if nothing && spec.stats.is_none() {
-            return usage(
-                "nothing to write: give --out, --mesh, --usd, --render or --stats".into(),
-            );
+            return usage(format!(
+                "nothing to write: give {}, {}, {}, {} or {}",
+                Field::Out,
+                Field::Mesh,
+                Field::Usd,
+                Field::Render,
+                Field::Stats
+            ));
         }
         if cfg!(not(feature = "vdb")) && out.is_some() {
-            return usage(
-                "--out writes VDB files: this activeskin was built without OpenVDB (the `vdb` feature); write --mesh instead".into(),
-            );
+            return usage(format!(
+                "{} writes VDB files: this activeskin was built without OpenVDB (the `vdb` feature); write {} instead",
+                Field::Out,
+                Field::Mesh
+            ));
         }
         if spec.resume && out.is_none() {
-            return usage(
-                "--resume needs --out: it continues from the last skin VDB written there".into(),
-            );
+            return usage(format!(
+                "{} needs {}: it continues from the last skin VDB written there",
+                Field::Resume,
+                Field::Out
+            ));
         }
         check_apart(spec, (first, last))?;
         let usd_frames = usd.as_ref().map(|(_, shot)| shot.frame_pattern());
@@ -490,33 +505,41 @@ fn shot_of(spec: &UsdSpec, written: (i64, i64)) -> Result<(UsdSpec, usd::Shot), 
     let name = stage.file_name().map(|n| n.to_string_lossy().into_owned());
     if crate::io::has_extension(stage, &["usdc", "usdz"]) {
         return usage(format!(
-            "--usd '{}': activeskin writes USD as text, name the stage .usda or .usd (Pixar's usdcat turns it into .usdc)",
+            "{} '{}': activeskin writes USD as text, name the stage .usda or .usd (Pixar's usdcat turns it into .usdc)",
+            Field::Usd,
             stage.display()
         ));
     }
     if !crate::io::has_extension(stage, usd::EXTENSIONS) {
         return usage(format!(
-            "--usd '{}': a USD stage must end in .usda or .usd",
+            "{} '{}': a USD stage must end in .usda or .usd",
+            Field::Usd,
             stage.display()
         ));
     }
     if name.is_some_and(|n| n.contains(['@', '"', '#', '%', '$', '\\'])) {
         return usage(format!(
-            "--usd '{}': the stage's name cannot hold @ \" # % $ or \\ (its frames' layers are named after it)",
+            "{} '{}': the stage's name cannot hold @ \" # % $ or \\ (its frames' layers are named after it)",
+            Field::Usd,
             stage.display()
         ));
     }
     if !(spec.meters_per_unit.is_finite() && spec.meters_per_unit > 0.0) {
         return usage(format!(
-            "--meters-per-unit must be a positive number, got {}",
+            "{} must be a positive number, got {}",
+            Field::MetersPerUnit,
             spec.meters_per_unit
         ));
     }
     let frames = spec.shot.unwrap_or(written);
     if frames.0 > written.0 || frames.1 < written.1 {
         return usage(format!(
-            "--shot-frames {}-{} must hold the frames written, {}-{}",
-            frames.0, frames.1, written.0, written.1
+            "{} {}-{} must hold the frames written, {}-{}",
+            Field::ShotFrames,
+            frames.0,
+            frames.1,
+            written.0,
+            written.1
         ));
     }
     let spec = UsdSpec {
@@ -554,21 +577,24 @@ fn check_apart(spec: &OutputSpec, (first, last): (i64, i64)) -> Result<(), Frame
             }
         }
     }
-    let mut written: HashMap<PathBuf, &str> = HashMap::new();
-    let outputs = [("--out", spec.out.as_ref()), ("--mesh", spec.mesh.as_ref())]
-        .into_iter()
-        .chain([("--render", spec.render.as_ref().map(|r| &r.0))])
-        .chain(spec.side_outputs.iter().map(|(flag, p)| (*flag, Some(p))))
-        .filter_map(|(flag, p)| p.map(|p| (flag, paths(p))))
-        .chain(spec.stats.iter().map(|p| ("--stats", vec![p.clone()])))
-        .chain(spec.usd.iter().flat_map(|u| {
-            let shot = usd::Shot::new(&u.stage, (first, last), 24.0, Up::Y, 1.0);
-            let frames = paths(&shot.frame_pattern());
-            [
-                ("--usd", vec![u.stage.clone(), shot.manifest_path()]),
-                ("--usd", frames),
-            ]
-        }));
+    let mut written: HashMap<PathBuf, Field> = HashMap::new();
+    let outputs = [
+        (Field::Out, spec.out.as_ref()),
+        (Field::Mesh, spec.mesh.as_ref()),
+    ]
+    .into_iter()
+    .chain([(Field::Render, spec.render.as_ref().map(|r| &r.0))])
+    .chain(spec.side_outputs.iter().map(|(flag, p)| (*flag, Some(p))))
+    .filter_map(|(flag, p)| p.map(|p| (flag, paths(p))))
+    .chain(spec.stats.iter().map(|p| (Field::Stats, vec![p.clone()])))
+    .chain(spec.usd.iter().flat_map(|u| {
+        let shot = usd::Shot::new(&u.stage, (first, last), 24.0, Up::Y, 1.0);
+        let frames = paths(&shot.frame_pattern());
+        [
+            (Field::Usd, vec![u.stage.clone(), shot.manifest_path()]),
+            (Field::Usd, frames),
+        ]
+    }));
     for (flag, paths) in outputs {
         for path in paths {
             // Lexically too: `new/../input` names the input once `new` is created.
@@ -659,7 +685,7 @@ fn write_file(path: &Path, bytes: &[u8]) -> Result<(), FrameError> {
 
 /// A usage error unless `pattern`'s files end in one of `extensions`.
 fn require_extension(
-    flag: &str,
+    flag: Field,
     pattern: &FramePattern,
     what: &str,
     extensions: &[&str],

@@ -316,7 +316,8 @@ impl FrameStream<LevelSetFrame> {
         super::check_fps(spec.fps)?;
         if !spec.velocity_scale.is_finite() {
             return Err(FrameError::Usage(format!(
-                "the velocity scale must be a number, got {}",
+                "{} must be a number, got {}",
+                crate::field::Field::VelocityScale,
                 spec.velocity_scale
             )));
         }

@@ -8,6 +8,7 @@ use glam::Vec3;
 use super::level_sets::{target_from_grid, to_world_units, TargetRead, TargetUnits};
 use super::scale::{self, ScaleFit};
 use super::{FrameError, InputFrames, LevelSetFrame};
+use crate::field::Field;
 use crate::flow::{Flow, GridFlow, Mean, Timing};
 use crate::sequence::FramePattern;
 use crate::target::{LevelSetTarget, Target};
@@ -125,8 +126,9 @@ impl VelocityInput {
                 {
                     Some(n) => {
                         note(format!(
-                            "velocity: grid '{n}' of {} (--no-velocity to ignore it)",
-                            path.display()
+                            "velocity: grid '{n}' of {} ({} to ignore it)",
+                            path.display(),
+                            Field::NoVelocity
                         ));
                         n.to_string()
                     }
@@ -142,10 +144,11 @@ impl VelocityInput {
                     // Velocity files given and none holds a velocity: not silently unused.
                     None if self.files.is_some() => {
                         return Err(FrameError::Data(format!(
-                            "{}: no velocity grid named {} (grids: {}); name it with --velocity NAME",
+                            "{}: no velocity grid named {} (grids: {}); name it with {}",
                             path.display(),
                             VELOCITY_NAMES.join(", "),
-                            listed(&grids)
+                            listed(&grids),
+                            Field::Velocity
                         )));
                     }
                     None => return Ok(None),
@@ -255,14 +258,17 @@ impl VelocityInput {
                     "given"
                 };
                 format!(
-                    "velocity: scale {k:.4} measured from frames {a}–{b} (R² ≥ {worst_r2:.2}), timing {carried} {how}; --velocity-scale, --velocity-time to override"
+                    "velocity: scale {k:.4} measured from frames {a}–{b} (R² ≥ {worst_r2:.2}), timing {carried} {how}; {}, {} to override",
+                    Field::VelocityScale,
+                    Field::VelocityTime
                 )
             }
             None => {
                 self.source = VelocitySource::Off;
                 format!(
-                    "warning: the velocity does not explain the surface's motion over frames {a}–{b} (R² {best_r2:.2} < {}): left out; give --velocity-scale to use it anyway",
-                    scale::MIN_R2
+                    "warning: the velocity does not explain the surface's motion over frames {a}–{b} (R² {best_r2:.2} < {}): left out; give {} to use it anyway",
+                    scale::MIN_R2,
+                    Field::VelocityScale
                 )
             }
         };

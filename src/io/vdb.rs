@@ -646,10 +646,11 @@ fn check_memory(
     Err(VdbError::file(
         path,
         format!(
-            "reading it would take {} (the grid is {} in memory as its writer recorded, and it is copied), over the memory budget of {}: give --max-memory to allow more",
+            "reading it would take {} (the grid is {} in memory as its writer recorded, and it is copied), over the memory budget of {}: give {} to allow more",
             crate::budget::size(needed),
             crate::budget::size(bytes),
-            crate::budget::size(budget)
+            crate::budget::size(budget),
+            crate::field::Field::MaxMemory
         ),
     ))
 }
