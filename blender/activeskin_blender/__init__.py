@@ -22,6 +22,7 @@ bl_info = {
 
 import glob
 import os
+import re
 import sys
 import zipfile
 
@@ -63,9 +64,27 @@ def _activeskin():
     return activeskin
 
 
+# The package's messages name a setting as the argument that sets it (`radius=`); the
+# panel says it by its label.
+_LABELS = {
+    "radius=": "Particle radius",
+    "voxel_size=": "Voxel size",
+    "alpha=": "Attraction α",
+    "beta=": "Tension β",
+    "smooth=": "Smoothing",
+    "fps=": "the scene's frame rate",
+    "frames=": "the frame range",
+}
+
+
 def _one_line(error):
     text = str(error).strip().splitlines()
-    return text[0] if text else type(error).__name__
+    if not text:
+        return type(error).__name__
+    line = text[0]
+    for argument, label in _LABELS.items():
+        line = re.sub(r"(?<![\w.])" + re.escape(argument), label, line)
+    return line
 
 
 def _frame_path(pattern, frame):

@@ -92,7 +92,8 @@ try:
     bpy.ops.activeskin.bake()
 except RuntimeError as e:
     message = str(e).strip()
-    assert "radius must be a positive number" in message, message
+    # Said by the panel's label, not as the package's argument or the command's flag.
+    assert "Particle radius must be a positive number" in message, message
     assert "Traceback" not in message and len(message.splitlines()) == 1, message
     print(f"bad radius reported: {message}")
 else:
