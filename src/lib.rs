@@ -77,6 +77,8 @@ pub enum Error {
     Render(#[from] io::image::RenderError),
     #[error(transparent)]
     Particles(#[from] io::particles::ParticleError),
+    #[error(transparent)]
+    Write(#[from] io::WriteError),
 }
 
 /// A repeatable pseudo-random source for tests: `below(n)` in 0..n (a 64-bit LCG's high

@@ -154,6 +154,166 @@ fn no_two_modules_import_each_other() {
     }
 }
 
+/// The modules of `io/` and the `io` modules each names (`super::ply`, `crate::io::ply`;
+/// `vdb/` is part of `vdb`), with the root `io.rs` as the node `io`: a file naming an item
+/// of the root (`super::has_extension`) points at it, the root naming a module's item
+/// (`ply::read_ply`) points down at that module; `pub mod` lines are not imports, nor
+/// the root's `pub use` re-exports for the crate's callers.
+fn io_imports() -> BTreeMap<String, BTreeSet<String>> {
+    let io = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/io");
+    let mut modules: Vec<String> = std::fs::read_dir(&io)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "rs"))
+        .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
+        .collect();
+    modules.sort();
+    let named = |text: &str, prefix: &str| -> BTreeSet<String> {
+        let mut names = BTreeSet::new();
+        for (k, _) in text.match_indices(prefix) {
+            // `xsuper::` or `my_ply::` are not these paths.
+            if text[..k].ends_with(|c: char| c.is_alphanumeric() || c == '_') {
+                continue;
+            }
+            let rest = &text[k + prefix.len()..];
+            let name: String = rest
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
+            names.insert(name);
+        }
+        names
+    };
+    let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for module in &modules {
+        let mut text = code(&std::fs::read_to_string(io.join(format!("{module}.rs"))).unwrap());
+        let folder = io.join(module);
+        if folder.is_dir() {
+            for entry in std::fs::read_dir(&folder).unwrap() {
+                text += &code(&std::fs::read_to_string(entry.unwrap().path()).unwrap());
+            }
+        }
+        let mut names = named(&text, "crate::io::");
+        if !folder.is_dir() {
+            names.extend(named(&text, "super::"));
+        }
+        let edges = graph.entry(module.clone()).or_default();
+        for name in names {
+            if modules.contains(&name) {
+                if &name != module {
+                    edges.insert(name);
+                }
+            } else if !name.is_empty() {
+                edges.insert("io".to_string());
+            }
+        }
+    }
+    let root = code(&std::fs::read_to_string(io.with_extension("rs")).unwrap());
+    let root: String = root
+        .lines()
+        .filter(|line| !line.trim_start().starts_with("#["))
+        .collect::<Vec<_>>()
+        .join("\n")
+        .split(';')
+        .filter(|statement| {
+            let s = statement.trim_start();
+            !(s.starts_with("pub mod") || s.starts_with("mod") || s.starts_with("pub use"))
+        })
+        .collect();
+    let edges = graph.entry("io".to_string()).or_default();
+    for module in &modules {
+        if !named(&root, &format!("{module}::")).is_empty() {
+            edges.insert(module.clone());
+        }
+    }
+    graph
+}
+
+/// A circle in `graph`, as its path, if any.
+fn circle(graph: &BTreeMap<String, BTreeSet<String>>) -> Option<String> {
+    fn visit(
+        node: &str,
+        graph: &BTreeMap<String, BTreeSet<String>>,
+        path: &mut Vec<String>,
+        done: &mut BTreeSet<String>,
+    ) -> Option<String> {
+        if let Some(k) = path.iter().position(|n| n == node) {
+            return Some(format!("{} -> {node}", path[k..].join(" -> ")));
+        }
+        if done.contains(node) {
+            return None;
+        }
+        path.push(node.to_string());
+        for next in graph.get(node).into_iter().flatten() {
+            if let Some(found) = visit(next, graph, path, done) {
+                return Some(found);
+            }
+        }
+        path.pop();
+        done.insert(node.to_string());
+        None
+    }
+    let mut done = BTreeSet::new();
+    graph
+        .keys()
+        .find_map(|node| visit(node, graph, &mut Vec::new(), &mut done))
+}
+
+/// Inside `io/` too (issue 50): no two formats import each other, no format imports the
+/// dispatchers above it (`mesh`, `particles`, `image`), and nothing reaches the crate's
+/// `vdb` through the crate root.
+#[test]
+fn io_has_no_circle_and_no_arrow_up() {
+    let graph = io_imports();
+    assert!(graph.len() > 15, "{graph:?}");
+    assert_eq!(circle(&graph), None, "{graph:?}");
+    let dispatchers = ["mesh", "particles", "image"];
+    for (module, names) in &graph {
+        if dispatchers.contains(&module.as_str()) {
+            continue;
+        }
+        let up: Vec<&String> = names
+            .iter()
+            .filter(|n| dispatchers.contains(&n.as_str()))
+            .collect();
+        assert!(up.is_empty(), "io::{module} imports {up:?}");
+    }
+    // The leaves every format shares import no format.
+    for leaf in ["file", "points", "scalar", "mesh_write"] {
+        assert!(
+            graph[leaf].iter().all(|n| n == "file" || n == "scalar"),
+            "io::{leaf} imports {:?}",
+            graph[leaf]
+        );
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/io");
+    for entry in std::fs::read_dir(&root).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_file() {
+            let text = code(&std::fs::read_to_string(&path).unwrap());
+            assert!(
+                !text.contains("crate::vdb"),
+                "{}: crate::vdb through the crate root",
+                path.display()
+            );
+        }
+    }
+}
+
+#[test]
+fn the_circle_finder_finds_one() {
+    let graph: BTreeMap<String, BTreeSet<String>> = [
+        ("a", vec!["b"]),
+        ("b", vec!["c"]),
+        ("c", vec!["a"]),
+        ("d", vec![]),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_string(), v.into_iter().map(String::from).collect()))
+    .collect();
+    assert_eq!(circle(&graph).as_deref(), Some("a -> b -> c -> a"));
+}
+
 #[test]
 fn the_reader_sees_imports_and_skips_comments_and_tests() {
     let text = "use crate::grid::Aabb;\n/// [`crate::io`]\nfn f() {} // crate::frames\n\

@@ -7,8 +7,8 @@ use std::io::Read;
 
 use rayon::prelude::*;
 
+use super::points::PointArray;
 use super::scalar::Scalar;
-use super::PointArray;
 
 /// A BGEO file that cannot be read as points.
 #[derive(Debug, thiserror::Error)]
@@ -171,7 +171,7 @@ impl<'a> Cursor<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::find_array;
+    use crate::io::points::find_array;
 
     /// A partio-style file: `points` with an int `id` and a vector `v`.
     fn partio(points: &[([f32; 3], i32, [f32; 3])]) -> Vec<u8> {

@@ -32,7 +32,7 @@ pub const EXTENSIONS: &[&str] = &["exr", "png"];
 
 /// Whether `path` ends in one of [`EXTENSIONS`] (any case): checked before a run.
 pub fn is_written(path: &Path) -> bool {
-    super::has_extension(path, EXTENSIONS)
+    super::file::has_extension(path, EXTENSIONS)
 }
 
 /// Writes by extension: `.exr` (RGBA, Z, N.X/N.Y/N.Z) or `.png` (beauty over grey).
@@ -50,5 +50,5 @@ pub fn write(render: &Render, path: &Path) -> Result<(), RenderError> {
         Some("png") => |image, path| Ok(super::png::write(image, path)?),
         _ => return Err(error(ImageFault::Extension)),
     };
-    super::write_atomically(path, |tmp| write(render, tmp)).map_err(error)
+    super::file::write_atomically(path, |tmp| write(render, tmp)).map_err(error)
 }

@@ -6,7 +6,7 @@ use std::path::Path;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::mesh::{write_with, MeshError, MeshFault};
+use super::mesh_write::{write_with, MeshError, MeshFault};
 use crate::mesh::Mesh;
 
 /// Wavefront OBJ with normals, through a temporary file renamed into place. The text

@@ -16,7 +16,7 @@ use crate::particles::{Attribute, Particles};
 /// A particle file that cannot be read or written: the file, and the cause (its whole
 /// chain in the message, one line).
 #[derive(Debug, thiserror::Error)]
-#[error("{}: {}", path.display(), super::error_chain(source))]
+#[error("{}: {}", path.display(), super::file::error_chain(source))]
 pub struct ParticleError {
     pub path: PathBuf,
     #[source]
@@ -37,7 +37,7 @@ impl ParticleError {
 pub enum ParticleFault {
     #[error(transparent)]
     Io(#[from] std::io::Error),
-    /// A directory, a pipe, a device ([`super::not_a_file`]).
+    /// A directory, a pipe, a device ([`super::file::not_a_file`]).
     #[error("{0}")]
     NotAFile(String),
     #[error("particle files must end in .ply, .vtk, .vtu, .vtp, .pvtu, .bgeo, .vdb, .json, .xyz, .csv or .txt")]
@@ -105,7 +105,7 @@ pub enum Format {
 /// `.json` (splashsurf's), or `.xyz` / `.csv` / `.txt`.
 pub fn read(path: &Path) -> Result<Particles, ParticleError> {
     let error = |fault: ParticleFault| ParticleError::new(path, fault);
-    if let Some(why) = super::not_a_file(path) {
+    if let Some(why) = super::file::not_a_file(path) {
         return Err(error(ParticleFault::NotAFile(why)));
     }
     let ext = path
@@ -142,7 +142,7 @@ pub fn read(path: &Path) -> Result<Particles, ParticleError> {
         }
         _ => return Err(error(ParticleFault::Extension)),
     };
-    let bytes = super::read_regular(path).map_err(|e| error(e.into()))?;
+    let bytes = super::file::read_regular(path).map_err(|e| error(e.into()))?;
     parse(&bytes, format).map_err(error)
 }
 
@@ -205,7 +205,7 @@ fn read_bgeo(bytes: &[u8]) -> Result<Particles, ParticleFault> {
 /// The scalar and vector arrays with a row for each of the `n` points, but those read as
 /// `known` (ASCII case ignored): the attributes `--attribute` may carry onto the surface.
 fn attributes(
-    arrays: &[super::PointArray],
+    arrays: &[super::points::PointArray],
     n: usize,
     known: &[&str],
 ) -> Result<Vec<Attribute>, ParticleFault> {
@@ -230,18 +230,18 @@ fn attributes(
 /// when it has not a row for each of the `n` points (a velocity silently dropped would
 /// change the motion the skin follows).
 fn column<'a>(
-    arrays: &'a [super::PointArray],
+    arrays: &'a [super::points::PointArray],
     n: usize,
     names: &[&str],
     components: usize,
 ) -> Result<Option<&'a [f64]>, ParticleFault> {
-    let found = super::find_array(arrays, names, components);
+    let found = super::points::find_array(arrays, names, components);
     found.map(|a| row_per_point(a, n)).transpose()?;
     Ok(found.map(|a| a.values.as_slice()))
 }
 
 /// Point data `a` holds a row for each of the `n` points.
-fn row_per_point(a: &super::PointArray, n: usize) -> Result<(), ParticleFault> {
+fn row_per_point(a: &super::points::PointArray, n: usize) -> Result<(), ParticleFault> {
     match a.values.len() == n * a.components {
         true => Ok(()),
         false => Err(ParticleFault::Rows {
@@ -279,7 +279,7 @@ fn read_vtu(bytes: &[u8]) -> Result<Particles, ParticleFault> {
 /// A parallel `.pvtu`/`.pvtp`: the points of every piece file it lists, in order, with
 /// the attributes every piece has.
 fn read_pieces(path: &Path) -> Result<Particles, ParticleFault> {
-    let bytes = super::read_regular(path)?;
+    let bytes = super::file::read_regular(path)?;
     let sources = super::vtu::piece_sources(&bytes)?;
     if sources.is_empty() {
         return Err(ParticleFault::NoPieces);
@@ -296,7 +296,7 @@ fn read_pieces(path: &Path) -> Result<Particles, ParticleFault> {
     let mut all = Particles::default();
     for (k, source) in sources.iter().enumerate() {
         let piece = folder.join(source);
-        let part = super::read_regular(&piece)
+        let part = super::file::read_regular(&piece)
             .map_err(ParticleFault::from)
             .and_then(|b| read_vtu(&b))
             .and_then(check)
@@ -337,7 +337,7 @@ fn read_pieces(path: &Path) -> Result<Particles, ParticleFault> {
 /// (SPlisHSPlasH `velocity`, DualSPHysics `Vel`), identity (`id`, `Idp`) and radius.
 fn from_arrays(
     positions: &[[f64; 3]],
-    arrays: &[super::PointArray],
+    arrays: &[super::points::PointArray],
 ) -> Result<Particles, ParticleFault> {
     let n = positions.len();
     let column = |names: &[&str], components: usize| column(arrays, n, names, components);
@@ -373,8 +373,8 @@ fn check(particles: Particles) -> Result<Particles, ParticleFault> {
 }
 
 #[cfg(feature = "vdb")]
-fn read_vdb(path: &Path) -> Result<Particles, crate::vdb::VdbError> {
-    let points = crate::vdb::read_points(path, None)?;
+fn read_vdb(path: &Path) -> Result<Particles, super::vdb::VdbError> {
+    let points = super::vdb::read_points(path, None)?;
     Ok(Particles {
         positions: points
             .positions

@@ -6,8 +6,8 @@ use std::path::Path;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::mesh::{write_records, write_with, MeshError, VertexValues};
-use super::particles::ParticleError;
+use super::file::WriteError;
+use super::mesh_write::{write_records, write_with, MeshError, VertexValues};
 use super::scalar::Scalar;
 use crate::mesh::Mesh;
 use crate::particles::{Attribute, Particles};
@@ -270,7 +270,7 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, PlyError> {
 }
 
 /// Writes positions as a binary little-endian PLY (`x y z` floats), atomically.
-pub fn write_ply(path: &Path, positions: &[Vec3]) -> Result<(), ParticleError> {
+pub fn write_ply(path: &Path, positions: &[Vec3]) -> Result<(), WriteError> {
     let particles = Particles {
         positions: positions.to_vec(),
         ..Particles::default()
@@ -283,7 +283,7 @@ pub fn write_ply(path: &Path, positions: &[Vec3]) -> Result<(), ParticleError> {
 /// 32 bits, else `double`, exact to 2⁵³) and its attributes (floats; a vector's as
 /// `NAME_x NAME_y NAME_z`) — what [`read_ply`] reads back: a converter from any format
 /// read.
-pub fn write_particles(path: &Path, particles: &Particles) -> Result<(), ParticleError> {
+pub fn write_particles(path: &Path, particles: &Particles) -> Result<(), WriteError> {
     let n = particles.positions.len();
     let wide_ids = particles
         .ids
@@ -337,8 +337,12 @@ pub fn write_particles(path: &Path, particles: &Particles) -> Result<(), Particl
             }
         }
     }
-    super::write_atomically(path, |tmp| std::fs::write(tmp, &bytes))
-        .map_err(|e| ParticleError::new(path, e))
+    super::file::write_atomically(path, |tmp| std::fs::write(tmp, &bytes)).map_err(|source| {
+        WriteError {
+            path: path.to_path_buf(),
+            source,
+        }
+    })
 }
 
 /// PLY has scalar properties only, named by one token: a scalar attribute under its own

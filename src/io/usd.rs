@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::mesh::{write_with, MeshError, VertexValues};
+use super::mesh_write::{write_with, MeshError, VertexValues};
 use crate::mesh::Mesh;
 use crate::particles::Attribute;
 use crate::render::Up;

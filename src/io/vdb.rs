@@ -399,7 +399,7 @@ pub fn write_grids_and_vectors(
             )
             .map_err(|e| VdbError::file(path, e.what()))?;
     }
-    crate::io::write_atomically(path, |tmp| {
+    super::file::write_atomically(path, |tmp| {
         writer
             .write(&tmp.to_string_lossy(), metadata)
             .map_err(|e| WriteFault::OpenVdb(e.what().to_string()))?;
@@ -516,7 +516,7 @@ fn write_point_grid(
     name: &str,
 ) -> Result<(), VdbError> {
     let flat: Vec<f32> = positions.iter().flatten().copied().collect();
-    crate::io::write_atomically(path, |tmp| {
+    super::file::write_atomically(path, |tmp| {
         ffi::bridge::write_points(
             &tmp.to_string_lossy(),
             &flat,
@@ -542,7 +542,7 @@ pub fn write_points_beside(
     beside: &Grid,
 ) -> Result<(), VdbError> {
     let flat: Vec<f32> = positions.iter().flatten().copied().collect();
-    crate::io::write_atomically(path, |tmp| {
+    super::file::write_atomically(path, |tmp| {
         ffi::bridge::write_points_beside(
             &tmp.to_string_lossy(),
             &flat,
@@ -606,7 +606,7 @@ pub fn list_grids(path: &Path) -> Result<Vec<GridSummary>, VdbError> {
 /// (see [`layout`]).
 fn check_vdb_file(path: &Path) -> Result<layout::Layout, VdbError> {
     // Before opening: opening a named pipe waits for a writer.
-    if let Some(why) = crate::io::not_a_file(path) {
+    if let Some(why) = super::file::not_a_file(path) {
         return Err(VdbError::file(path, why));
     }
     let file = std::fs::File::open(path).map_err(|e| VdbError::file(path, io_reason(&e)))?;

@@ -4,8 +4,8 @@
 //! ParaView (ASCII or binary, version 5.1 `OFFSETS`/`CONNECTIVITY` cells, `METADATA`).
 //! Only the points and their point data are kept; cells are read past.
 
+use super::points::PointArray;
 use super::scalar::Scalar;
-use super::PointArray;
 
 /// A legacy VTK file that cannot be read as points.
 #[derive(Debug, thiserror::Error)]
@@ -188,7 +188,7 @@ pub fn parse(bytes: &[u8]) -> Result<VtkPoints, VtkError> {
                 return Err(r.syntax("binary data where a keyword was expected".into()))
             }
             _ => {
-                let word = crate::io::printable(words[0], 40);
+                let word = super::file::printable(words[0], 40);
                 return Err(r.syntax(format!("unexpected '{word}'")));
             }
         }
@@ -327,7 +327,7 @@ impl Reader<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::io::find_array;
+    use crate::io::points::find_array;
 
     fn be32(values: &[f32]) -> Vec<u8> {
         values.iter().flat_map(|v| v.to_be_bytes()).collect()

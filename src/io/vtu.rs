@@ -11,8 +11,8 @@ use rayon::prelude::*;
 
 use quick_xml::events::{BytesStart, Event};
 
+use super::points::PointArray;
 use super::scalar::Scalar;
-use super::PointArray;
 
 /// A VTK XML file that cannot be read as points.
 #[derive(Debug, thiserror::Error)]
