@@ -115,7 +115,10 @@ impl<P: Potential> Skin<P> {
         if smoothing > 0.0 {
             // The flow and an offset of a voxel or more leave the band no distance
             // (checkLevelSet would flag it) and may leave crumbs of a pinched tip.
-            self.refit_band();
+            // The band was made a distance after the flow; a uniform offset keeps it one
+            // but where the tube moved and at its clamped ends: only nodes whose slope
+            // is off are re-distanced, and two sweeps mend the ends.
+            self.refit_band(band::KEPT_WITHIN, 2);
             self.polygonize();
             self.drop_crumbs();
         }

@@ -93,7 +93,7 @@ impl<P: Potential> Skin<P> {
         // The tube follows the skin where it moved (the polygonizer meshes its cells),
         // the band a distance again before the volume is measured and offset (and once
         // more after: `Skin::settle_holding`).
-        self.refit_band();
+        self.refit_band(0.0, 2 * self.params.band_width.ceil() as usize);
         self.polygonize();
     }
 
@@ -165,17 +165,20 @@ impl<P: Potential> Skin<P> {
     /// is made a distance again — next to the skin exactly, from its cells, and beyond by
     /// upwind sweeps across the band — so that the export's re-distancing finds nothing
     /// more to move.
-    pub(super) fn refit_band(&mut self) {
+    /// Nodes next to the skin whose slope is within `kept_within` of a distance's keep
+    /// their values (0: none, after the flow, which leaves no level set a distance);
+    /// `sweeps` upwind sweeps carry the distance across the band.
+    pub(super) fn refit_band(&mut self, kept_within: f32, sweeps: usize) {
         crate::grid::tube::upkeep(&mut self.grid);
         let w = self.params.band_width;
         band::redistance_within(
             &mut self.grid,
             w,
-            0.0,
+            kept_within,
             |halo, l, bound| distance_in_cells_around(halo, l).min(bound),
             &mut self.rates,
         );
-        for _ in 0..2 * w.ceil() as usize {
+        for _ in 0..sweeps {
             band::renormalize(&mut self.grid, w, 0.0, &mut self.rates);
         }
     }
@@ -379,34 +382,63 @@ fn curvature_step<P: Potential>(
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
 ) {
     scratch.resize(grid.block_count(), [0.0; BLOCK_NODES]);
+    let mut moving = vec![false; grid.block_count()];
     scratch
         .par_iter_mut()
+        .zip(moving.par_iter_mut())
         .zip(grid.blocks().par_iter().zip(weights))
         .enumerate()
-        .for_each_init(Box::<Halo>::default, |halo, (b, (out, (block, w)))| {
-            halo.gather(grid, block);
-            let distances = limit.map(|l| &l.distances[b]);
-            for (x, y, _) in block.active_rows() {
-                let start = node_offset(x, y, 0);
-                let moved = tangential_laplacian_row(halo, x, y);
-                for z in 0..8 {
-                    let f = halo.at(x, y, z as i32);
-                    // Only the level sets near the skin move: deeper ones, near a
-                    // body's middle, shrink fast where the slope vanishes and would
-                    // reach the skin (the band is made a distance again afterwards).
-                    let near = f32::from(u8::from(f.abs() < NEXT_TO_SKIN));
-                    let mut m = step / 6.0 * w[start + z] * moved[z] * near;
-                    if let (Some(limit), Some(d)) = (limit, distances) {
-                        let d = d[start + z];
-                        if d.is_finite() {
-                            m = limit.inward(f, d, m);
-                        }
-                    }
-                    out[start + z] = (f + m).clamp(-1.0, 1.0);
+        .for_each_init(
+            Box::<Halo>::default,
+            |halo, (b, ((out, moving), (block, w)))| {
+                // Most of the band does not move (too far from the skin, or spared): a block
+                // without a node that moves is left as it is, a row is copied, their stencils
+                // not computed.
+                let moves = |offset: usize| {
+                    w[offset] > 0.0 && block.values[offset].to_f32().abs() < NEXT_TO_SKIN
+                };
+                *moving = mask_offsets(block.active).any(moves);
+                if !*moving {
+                    return;
                 }
+                halo.gather(grid, block);
+                let distances = limit.map(|l| &l.distances[b]);
+                for (x, y, _) in block.active_rows() {
+                    let start = node_offset(x, y, 0);
+                    if !(start..start + 8).any(moves) {
+                        for z in 0..8 {
+                            out[start + z] = halo.at(x, y, z as i32);
+                        }
+                        continue;
+                    }
+                    let moved = tangential_laplacian_row(halo, x, y);
+                    for z in 0..8 {
+                        let f = halo.at(x, y, z as i32);
+                        // Only the level sets near the skin move: deeper ones, near a
+                        // body's middle, shrink fast where the slope vanishes and would
+                        // reach the skin (the band is made a distance again afterwards).
+                        let near = f32::from(u8::from(f.abs() < NEXT_TO_SKIN));
+                        let mut m = step / 6.0 * w[start + z] * moved[z] * near;
+                        if let (Some(limit), Some(d)) = (limit, distances) {
+                            let d = d[start + z];
+                            if d.is_finite() {
+                                m = limit.inward(f, d, m);
+                            }
+                        }
+                        out[start + z] = (f + m).clamp(-1.0, 1.0);
+                    }
+                }
+            },
+        );
+    let blocks = grid.blocks_mut().par_iter_mut().zip(scratch.par_iter());
+    blocks
+        .zip(moving.par_iter())
+        .filter(|(_, &moving)| moving)
+        .for_each(|((block, values), _)| {
+            for offset in mask_offsets(block.active) {
+                block.values[offset] = P::from_f32(values[offset]);
             }
         });
-    band::write_back(grid, scratch, false);
 }
 
 /// |∇f|κ (the Laplacian without its normal part) at local nodes (x, y, 0..8), computed
