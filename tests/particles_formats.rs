@@ -269,19 +269,19 @@ fn damaged_files_never_panic() {
     let seeds: Vec<(Vec<u8>, Format)> = vec![
         (
             std::fs::read(data("sph/vtk/ParticleData_Fluid_2.vtk")).unwrap(),
-            Format::Vtk,
+            Format::VTK,
         ),
         (
             std::fs::read(data("sph/vtk/meshio_ascii_2.vtk")).unwrap(),
-            Format::Vtk,
+            Format::VTK,
         ),
         (
             std::fs::read(data("sph/vtk/meshio_binary_2.vtk")).unwrap(),
-            Format::Vtk,
+            Format::VTK,
         ),
-        (gz, Format::Bgeo),
-        (raw, Format::Bgeo),
-        (b"[[0, 1, 2], [3.5, 4, 5e-3]]".to_vec(), Format::Json),
+        (gz, Format::BGEO),
+        (raw, Format::BGEO),
+        (b"[[0, 1, 2], [3.5, 4, 5e-3]]".to_vec(), Format::JSON),
     ];
     let seeds: Vec<(Vec<u8>, Format)> = seeds
         .into_iter()
@@ -296,7 +296,7 @@ fn damaged_files_never_panic() {
             .iter()
             .map(|name| {
                 let bytes = std::fs::read(data(&format!("sph/vtu/{name}"))).unwrap();
-                (bytes, Format::Vtu)
+                (bytes, Format::VTU)
             }),
         )
         .collect();

@@ -2,18 +2,11 @@
 //! is accepted is finite.
 #![no_main]
 
-use activeskin::io::particles::{parse, Format};
+use activeskin::io::particles::{parse, FORMATS};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    for format in [
-        Format::Ply,
-        Format::Text,
-        Format::Vtk,
-        Format::Vtu,
-        Format::Bgeo,
-        Format::Json,
-    ] {
+    for format in FORMATS {
         if let Ok(particles) = parse(data, format) {
             assert!(particles.positions.iter().all(|p| p.is_finite()));
             if let Some(radii) = &particles.radii {

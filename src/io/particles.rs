@@ -40,7 +40,7 @@ pub enum ParticleFault {
     /// A directory, a pipe, a device ([`super::file::not_a_file`]).
     #[error("{0}")]
     NotAFile(String),
-    #[error("particle files must end in .ply, .vtk, .vtu, .vtp, .pvtu, .bgeo, .vdb, .json, .xyz, .csv or .txt")]
+    #[error("particle files must end in {}", extensions_listed())]
     Extension,
     #[error(transparent)]
     Ply(#[from] super::ply::PlyError),
@@ -84,25 +84,90 @@ pub enum ParticleFault {
     NoVdb,
 }
 
-/// A particle file format read from bytes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Format {
-    Ply,
-    /// `x y z [radius]` per line, spaces or commas, optional header.
-    Text,
-    /// Legacy VTK, ASCII or binary ([`super::vtk`]).
-    Vtk,
-    /// VTK XML points, `.vtu` or `.vtp` ([`super::vtu`]).
-    Vtu,
-    /// Classic BGEO as partio writes it, gzipped or not ([`super::bgeo`]).
-    Bgeo,
-    /// splashsurf's JSON: `[[x, y, z], …]`.
-    Json,
+/// A particle file format read from bytes: what it is called, the extensions that name
+/// it (lowercase, matched at the end of the file's name, `bgeo.gz` too) and its reader,
+/// which checks nothing ([`parse`] does). A new format is its module in `io/` and one
+/// line in [`FORMATS`].
+#[derive(Debug, Clone, Copy)]
+pub struct Format {
+    pub name: &'static str,
+    pub extensions: &'static [&'static str],
+    read: fn(&[u8]) -> Result<Particles, ParticleFault>,
 }
 
-/// Reads a frame by extension: `.ply`, `.vtk`, `.vtu` / `.vtp` (and `.pvtu` / `.pvtp`,
-/// every piece file they list), `.bgeo` (`.bgeo.gz`), `.vdb` (the first point data grid),
-/// `.json` (splashsurf's), or `.xyz` / `.csv` / `.txt`.
+/// Every format read from a file's bytes. Two more are read from the path ([`read`]):
+/// `.pvtu`/`.pvtp`, which name their piece files, and `.vdb` points, through OpenVDB.
+pub const FORMATS: [Format; 6] = [
+    Format {
+        name: "PLY",
+        extensions: &["ply"],
+        read: |b| Ok(read_ply(b)?),
+    },
+    Format {
+        name: "legacy VTK",
+        extensions: &["vtk"],
+        read: read_vtk,
+    },
+    Format {
+        name: "VTK XML",
+        extensions: &["vtu", "vtp"],
+        read: read_vtu,
+    },
+    Format {
+        name: "partio BGEO",
+        extensions: &["bgeo", "bgeo.gz", "geo"],
+        read: read_bgeo,
+    },
+    Format {
+        name: "splashsurf JSON",
+        extensions: &["json"],
+        read: |b| Ok(read_json(b)?),
+    },
+    Format {
+        name: "XYZ/CSV text",
+        extensions: &["xyz", "csv", "txt"],
+        read: |b| Ok(read_text(b)?),
+    },
+];
+
+/// Read from the path, not the bytes: parallel VTK files, VDB point grids.
+const PATH_EXTENSIONS: [&str; 3] = ["pvtu", "pvtp", "vdb"];
+
+impl Format {
+    pub const PLY: Format = FORMATS[0];
+    pub const VTK: Format = FORMATS[1];
+    pub const VTU: Format = FORMATS[2];
+    pub const BGEO: Format = FORMATS[3];
+    pub const JSON: Format = FORMATS[4];
+    pub const TEXT: Format = FORMATS[5];
+
+    /// The format the end of `path`'s file name names (any case).
+    pub fn of(path: &Path) -> Option<Format> {
+        let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
+        FORMATS.into_iter().find(|f| {
+            f.extensions
+                .iter()
+                .any(|e| name.strip_suffix(e).is_some_and(|n| n.ends_with('.')))
+        })
+    }
+}
+
+/// Every extension a particle file may have, for a message: `.ply, .vtk, … or .vdb`.
+fn extensions_listed() -> String {
+    let all: Vec<String> = FORMATS
+        .iter()
+        .flat_map(|f| f.extensions.iter())
+        .chain(&PATH_EXTENSIONS)
+        .map(|e| format!(".{e}"))
+        .collect();
+    match all.split_last() {
+        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        None => String::new(),
+    }
+}
+
+/// Reads a frame by extension: a format of [`FORMATS`], `.pvtu` / `.pvtp` (every piece
+/// file they list) or `.vdb` (the first point data grid).
 pub fn read(path: &Path) -> Result<Particles, ParticleError> {
     let error = |fault: ParticleFault| ParticleError::new(path, fault);
     if let Some(why) = super::file::not_a_file(path) {
@@ -125,37 +190,14 @@ pub fn read(path: &Path) -> Result<Particles, ParticleError> {
     if matches!(ext.as_deref(), Some("pvtu" | "pvtp")) {
         return read_pieces(path).map_err(error);
     }
-    let format = match ext.as_deref() {
-        Some("ply") => Format::Ply,
-        Some("vtu" | "vtp") => Format::Vtu,
-        Some("xyz" | "csv" | "txt") => Format::Text,
-        Some("vtk") => Format::Vtk,
-        Some("bgeo" | "geo") => Format::Bgeo,
-        Some("json") => Format::Json,
-        Some("gz")
-            if path
-                .to_string_lossy()
-                .to_ascii_lowercase()
-                .ends_with(".bgeo.gz") =>
-        {
-            Format::Bgeo
-        }
-        _ => return Err(error(ParticleFault::Extension)),
-    };
+    let format = Format::of(path).ok_or_else(|| error(ParticleFault::Extension))?;
     let bytes = super::file::read_regular(path).map_err(|e| error(e.into()))?;
     parse(&bytes, format).map_err(error)
 }
 
 /// Parses a frame's bytes: positions finite, radii (when given) positive.
 pub fn parse(bytes: &[u8], format: Format) -> Result<Particles, ParticleFault> {
-    check(match format {
-        Format::Ply => read_ply(bytes)?,
-        Format::Text => read_text(bytes)?,
-        Format::Vtk => read_vtk(bytes)?,
-        Format::Vtu => read_vtu(bytes)?,
-        Format::Bgeo => read_bgeo(bytes)?,
-        Format::Json => read_json(bytes)?,
-    })
+    check((format.read)(bytes)?)
 }
 
 /// A gzipped frame inflates to at most this many times its size (float data compresses
@@ -419,6 +461,30 @@ mod tests {
     use crate::io::ply::read_ply;
     use crate::io::text::read_text;
 
+    /// The table names each extension once, finds formats by the end of a file's name in
+    /// any case, and the message for an unknown one lists them all.
+    #[test]
+    fn formats_are_found_by_their_extensions() {
+        let mut seen = std::collections::HashSet::new();
+        for f in FORMATS {
+            for e in f.extensions {
+                assert!(seen.insert(*e), "{e} twice");
+                let found = Format::of(Path::new(&format!("a/b.0001.{}", e.to_uppercase())));
+                assert_eq!(found.map(|f| f.name), Some(f.name), "{e}");
+            }
+        }
+        assert_eq!(
+            Format::of(Path::new("x.bgeo.gz")).map(|f| f.name),
+            Some("partio BGEO")
+        );
+        assert_eq!(Format::of(Path::new("x.gz")).map(|f| f.name), None);
+        assert_eq!(Format::of(Path::new("xply")).map(|f| f.name), None);
+        let said = ParticleFault::Extension.to_string();
+        for e in seen.iter().chain(&PATH_EXTENSIONS) {
+            assert!(said.contains(&format!(".{e}")), "{said}");
+        }
+    }
+
     #[test]
     fn csv_headers_name_the_columns_in_any_order() {
         let p = |text: &str| read_text(text.as_bytes());
@@ -467,19 +533,19 @@ mod tests {
                 "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nproperty float {}\nproperty float {}\nproperty float {}\nend_header\n0 0 0 1 2 3\n1 1 1 -4 5 -6\n",
                 names[0], names[1], names[2]
             );
-            let p = parse(ply.as_bytes(), Format::Ply).unwrap();
+            let p = parse(ply.as_bytes(), Format::PLY).unwrap();
             assert_eq!(
                 p.velocities,
                 Some(vec![Vec3::new(1.0, 2.0, 3.0), Vec3::new(-4.0, 5.0, -6.0)])
             );
         }
         let nan = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty float vx\nproperty float vy\nproperty float vz\nend_header\n0 0 0 nan 0 0\n";
-        let err = parse(nan.as_bytes(), Format::Ply).unwrap_err().to_string();
+        let err = parse(nan.as_bytes(), Format::PLY).unwrap_err().to_string();
         assert!(err.contains("velocity"), "{err}");
         // Without them: none.
         let plain = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n";
         assert_eq!(
-            parse(plain.as_bytes(), Format::Ply).unwrap().velocities,
+            parse(plain.as_bytes(), Format::PLY).unwrap().velocities,
             None
         );
     }
@@ -566,7 +632,7 @@ mod tests {
             } else {
                 bytes.extend_from_slice(&[0x3f; 40]);
             }
-            let err = parse(&bytes, Format::Ply).unwrap_err().to_string();
+            let err = parse(&bytes, Format::PLY).unwrap_err().to_string();
             assert!(err.contains("vertices announced"), "{format}: {err}");
         }
     }
