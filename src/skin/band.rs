@@ -82,19 +82,10 @@ fn slope(halo: &Halo, l: IVec3) -> f32 {
 /// Makes the potential a signed distance next to the skin, for export: each node with an
 /// edge crossing takes `distance(halo, local node, bound)` (voxels: its exact distance to
 /// the skin's mesh, at most `bound`, its nearest crossing) with its sign, unless its slope
-/// is within [`KEPT_WITHIN`] of 1. The nodes farther out already hold the
-/// renormalised distance from these. The skin moves by second-order terms only: on an
-/// edge crossed at t, distances t·c and (1−t)·c keep the crossing at t.
-pub(crate) fn redistance<P: Potential>(
-    grid: &mut SparseGrid<P>,
-    band_width: f32,
-    distance: impl Fn(&Halo, IVec3, f32) -> f32 + Sync,
-    scratch: &mut Vec<[f32; BLOCK_NODES]>,
-) {
-    redistance_within(grid, band_width, KEPT_WITHIN, distance, scratch);
-}
-
-/// [`redistance`], keeping the nodes whose slope is within `kept_within` of 1 (none at 0).
+/// is within `kept_within` of 1 (none at 0; the export keeps [`KEPT_WITHIN`]). The nodes
+/// farther out already hold the renormalised distance from these. The skin moves by
+/// second-order terms only: on an edge crossed at t, distances t·c and (1−t)·c keep the
+/// crossing at t.
 pub(crate) fn redistance_within<P: Potential>(
     grid: &mut SparseGrid<P>,
     band_width: f32,

@@ -17,13 +17,20 @@ impl<P: Potential> Skin<P> {
     /// (they define the skin), which are not a distance in a thin neck, where
     /// checkLevelSet would flag them.
     pub fn to_level_set(&self) -> GridData {
+        self.to_level_set_within(band::KEPT_WITHIN)
+    }
+
+    /// [`Skin::to_level_set`], the nodes next to the skin whose slope is within
+    /// `kept_within` of a distance's keeping their values (0: every one re-distanced).
+    fn to_level_set_within(&self, kept_within: f32) -> GridData {
         let dx = self.params.dx;
         let w = self.params.band_width;
         let background = self.background();
         let mut grid = self.grid.clone();
-        band::redistance(
+        band::redistance_within(
             &mut grid,
             w,
+            kept_within,
             |halo, l, bound| distance_in_cells_around(halo, l).min(bound),
             &mut Vec::new(),
         );
@@ -116,13 +123,17 @@ impl<P: Potential> Skin<P> {
             // The flow and an offset of a voxel or more leave the band no distance
             // (checkLevelSet would flag it) and may leave crumbs of a pinched tip.
             // The band was made a distance after the flow; a uniform offset keeps it one
-            // but where the tube moved and at its clamped ends: only nodes whose slope
-            // is off are re-distanced, and two sweeps mend the ends.
-            self.refit_band(band::KEPT_WITHIN, 2);
+            // but where the tube moved and at its clamped ends, which two sweeps mend;
+            // the nodes next to the skin are re-distanced once, by the export.
+            self.refit_band(f32::INFINITY, 2);
             self.polygonize();
             self.drop_crumbs();
         }
-        let level_set = self.to_level_set();
+        let kept_within = match smoothing > 0.0 {
+            true => 0.0,
+            false => band::KEPT_WITHIN,
+        };
+        let level_set = self.to_level_set_within(kept_within);
         self.restore(&level_set)
             .expect("a skin's own level set has its voxel size and origin");
         level_set

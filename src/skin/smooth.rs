@@ -171,13 +171,15 @@ impl<P: Potential> Skin<P> {
     pub(super) fn refit_band(&mut self, kept_within: f32, sweeps: usize) {
         crate::grid::tube::upkeep(&mut self.grid);
         let w = self.params.band_width;
-        band::redistance_within(
-            &mut self.grid,
-            w,
-            kept_within,
-            |halo, l, bound| distance_in_cells_around(halo, l).min(bound),
-            &mut self.rates,
-        );
+        if kept_within.is_finite() {
+            band::redistance_within(
+                &mut self.grid,
+                w,
+                kept_within,
+                |halo, l, bound| distance_in_cells_around(halo, l).min(bound),
+                &mut self.rates,
+            );
+        }
         for _ in 0..sweeps {
             band::renormalize(&mut self.grid, w, 0.0, &mut self.rates);
         }
