@@ -17,12 +17,6 @@ impl<P: Potential> Skin<P> {
     /// (they define the skin), which are not a distance in a thin neck, where
     /// checkLevelSet would flag them.
     pub fn to_level_set(&self) -> GridData {
-        self.to_level_set_within(band::KEPT_WITHIN)
-    }
-
-    /// [`Skin::to_level_set`], the nodes next to the skin whose slope is within
-    /// `kept_within` of a distance's keeping their values (0: every one re-distanced).
-    fn to_level_set_within(&self, kept_within: f32) -> GridData {
         let dx = self.params.dx;
         let w = self.params.band_width;
         let background = self.background();
@@ -30,7 +24,7 @@ impl<P: Potential> Skin<P> {
         band::redistance_within(
             &mut grid,
             w,
-            kept_within,
+            band::KEPT_WITHIN,
             |halo, l, bound| distance_in_cells_around(halo, l).min(bound),
             &mut Vec::new(),
         );
@@ -122,18 +116,13 @@ impl<P: Potential> Skin<P> {
         if smoothing > 0.0 {
             // The flow and an offset of a voxel or more leave the band no distance
             // (checkLevelSet would flag it) and may leave crumbs of a pinched tip.
-            // The band was made a distance after the flow; a uniform offset keeps it one
-            // but where the tube moved and at its clamped ends, which two sweeps mend;
-            // the nodes next to the skin are re-distanced once, by the export.
-            self.refit_band(f32::INFINITY, 2);
+            // Every node next to the skin re-distanced: keeping those whose slope looks
+            // right leaves thin sheets out of checkLevelSet's range (tests/cli_demo.rs).
+            self.refit_band();
             self.polygonize();
             self.drop_crumbs();
         }
-        let kept_within = match smoothing > 0.0 {
-            true => 0.0,
-            false => band::KEPT_WITHIN,
-        };
-        let level_set = self.to_level_set_within(kept_within);
+        let level_set = self.to_level_set();
         self.restore(&level_set)
             .expect("a skin's own level set has its voxel size and origin");
         level_set

@@ -93,7 +93,7 @@ impl<P: Potential> Skin<P> {
         // The tube follows the skin where it moved (the polygonizer meshes its cells),
         // the band a distance again before the volume is measured and offset (and once
         // more after: `Skin::settle_holding`).
-        self.refit_band(0.0, 2 * self.params.band_width.ceil() as usize);
+        self.refit_band();
         self.polygonize();
     }
 
@@ -165,22 +165,17 @@ impl<P: Potential> Skin<P> {
     /// is made a distance again — next to the skin exactly, from its cells, and beyond by
     /// upwind sweeps across the band — so that the export's re-distancing finds nothing
     /// more to move.
-    /// Nodes next to the skin whose slope is within `kept_within` of a distance's keep
-    /// their values (0: none, after the flow, which leaves no level set a distance);
-    /// `sweeps` upwind sweeps carry the distance across the band.
-    pub(super) fn refit_band(&mut self, kept_within: f32, sweeps: usize) {
+    pub(super) fn refit_band(&mut self) {
         crate::grid::tube::upkeep(&mut self.grid);
         let w = self.params.band_width;
-        if kept_within.is_finite() {
-            band::redistance_within(
-                &mut self.grid,
-                w,
-                kept_within,
-                |halo, l, bound| distance_in_cells_around(halo, l).min(bound),
-                &mut self.rates,
-            );
-        }
-        for _ in 0..sweeps {
+        band::redistance_within(
+            &mut self.grid,
+            w,
+            0.0,
+            |halo, l, bound| distance_in_cells_around(halo, l).min(bound),
+            &mut self.rates,
+        );
+        for _ in 0..2 * w.ceil() as usize {
             band::renormalize(&mut self.grid, w, 0.0, &mut self.rates);
         }
     }
