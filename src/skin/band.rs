@@ -71,7 +71,7 @@ pub(crate) fn renormalizing(
 /// straddle both sides, fail the slope and take the exact distance checkLevelSet's
 /// eikonal test wants there. The exact distances are only computed where needed: the
 /// export took 40–65 ms a frame on the dam break for all of them, 15 ms now.
-pub(super) const KEPT_WITHIN: f32 = 0.1;
+const KEPT_WITHIN: f32 = 0.1;
 
 /// |∇f| at local node `l` by central differences (f units per voxel).
 fn slope(halo: &Halo, l: IVec3) -> f32 {
@@ -82,10 +82,19 @@ fn slope(halo: &Halo, l: IVec3) -> f32 {
 /// Makes the potential a signed distance next to the skin, for export: each node with an
 /// edge crossing takes `distance(halo, local node, bound)` (voxels: its exact distance to
 /// the skin's mesh, at most `bound`, its nearest crossing) with its sign, unless its slope
-/// is within `kept_within` of 1 (none at 0; the export keeps [`KEPT_WITHIN`]). The nodes
-/// farther out already hold the renormalised distance from these. The skin moves by
-/// second-order terms only: on an edge crossed at t, distances t·c and (1−t)·c keep the
-/// crossing at t.
+/// is within [`KEPT_WITHIN`] of 1. The nodes farther out already hold the
+/// renormalised distance from these. The skin moves by second-order terms only: on an
+/// edge crossed at t, distances t·c and (1−t)·c keep the crossing at t.
+pub(crate) fn redistance<P: Potential>(
+    grid: &mut SparseGrid<P>,
+    band_width: f32,
+    distance: impl Fn(&Halo, IVec3, f32) -> f32 + Sync,
+    scratch: &mut Vec<[f32; BLOCK_NODES]>,
+) {
+    redistance_within(grid, band_width, KEPT_WITHIN, distance, scratch);
+}
+
+/// [`redistance`], keeping the nodes whose slope is within `kept_within` of 1 (none at 0).
 pub(crate) fn redistance_within<P: Potential>(
     grid: &mut SparseGrid<P>,
     band_width: f32,

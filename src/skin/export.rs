@@ -21,10 +21,9 @@ impl<P: Potential> Skin<P> {
         let w = self.params.band_width;
         let background = self.background();
         let mut grid = self.grid.clone();
-        band::redistance_within(
+        band::redistance(
             &mut grid,
             w,
-            band::KEPT_WITHIN,
             |halo, l, bound| distance_in_cells_around(halo, l).min(bound),
             &mut Vec::new(),
         );
