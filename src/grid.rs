@@ -135,9 +135,9 @@ pub(crate) fn bits(mut word: u16) -> impl Iterator<Item = i32> {
     })
 }
 
-/// The node offsets set in an active mask (a copy: the block's values may be written
-/// while they are visited).
-pub(crate) fn mask_offsets(mask: [u64; 8]) -> impl Iterator<Item = usize> {
+/// The bits set in a mask, by index: a block's active mask gives node offsets (a copy:
+/// the block's values may be written while they are visited).
+pub(crate) fn mask_offsets(mask: impl IntoIterator<Item = u64>) -> impl Iterator<Item = usize> {
     mask.into_iter().enumerate().flat_map(|(w, word)| {
         let mut bits = word;
         std::iter::from_fn(move || {

@@ -283,8 +283,9 @@ fn cube_triangles(
 /// in the eight cells around it, vertices clamped as the mesh's are; infinite when none
 /// is crossed. Within a voxel of the node the mesh lies in those cells, so whenever it
 /// comes that near this is its exact distance — found from the halo alone, with no
-/// index of the mesh.
-pub(crate) fn distance_in_cells_around(halo: &Halo, l: IVec3) -> f32 {
+/// index of the mesh. (The oracle of [`distances_in_cells_around`].)
+#[cfg(test)]
+fn distance_in_cells_around(halo: &Halo, l: IVec3) -> f32 {
     let p = l.as_vec3();
     let value = |m: IVec3| halo.at(m.x, m.y, m.z);
     let mut best = f32::INFINITY;
@@ -310,6 +311,81 @@ pub(crate) fn distance_in_cells_around(halo: &Halo, l: IVec3) -> f32 {
         }
     }
     best
+}
+
+/// [`distance_in_cells_around`] for every node of the block flagged in `wanted` (local
+/// offsets), each at most its entry of `best` on the way in (a bound it already has):
+/// each crossed cell around them is cut once for all its wanted corners, where the
+/// node-by-node search cuts it again for each — the same triangles, so the same
+/// distances, bit for bit (a minimum does not depend on its order).
+pub(crate) fn distances_in_cells_around(
+    halo: &Halo,
+    wanted: &[u64; 8],
+    best: &mut [f32; crate::grid::BLOCK_NODES],
+) {
+    // Cells by their lowest corner, local -1..=7 on each axis.
+    const SIDE: i32 = BLOCK_DIM + 1;
+    let index = |cell: IVec3| ((cell.x + 1) * SIDE + cell.y + 1) * SIDE + cell.z + 1;
+    let mut cells = [0u64; ((SIDE * SIDE * SIDE) as usize).div_ceil(64)];
+    for offset in crate::grid::mask_offsets(*wanted) {
+        let l = crate::grid::offset_coords(offset);
+        for c in 0..8 {
+            let i = index(l - IVec3::ONE + corner_offset(c)) as usize;
+            cells[i / 64] |= 1 << (i % 64);
+        }
+    }
+    let value = |m: IVec3| halo.at(m.x, m.y, m.z);
+    let is_wanted = |n: IVec3| {
+        n.cmpge(IVec3::ZERO).all() && n.cmplt(IVec3::splat(BLOCK_DIM)).all() && {
+            let o = node_offset(n.x, n.y, n.z);
+            wanted[o / 64] >> (o % 64) & 1 == 1
+        }
+    };
+    let mut triangles = [[Vec3::ZERO; 3]; cases::MAX_TRIANGLES];
+    let mut boxes = [(Vec3::ZERO, Vec3::ZERO); cases::MAX_TRIANGLES];
+    for i in crate::grid::mask_offsets(cells) {
+        let i = i as i32;
+        let cell = IVec3::new(i / (SIDE * SIDE), i / SIDE % SIDE, i % SIDE) - IVec3::ONE;
+        let signs = (0..8).fold(0u8, |s, k| {
+            s | u8::from(inside(value(cell + corner_offset(k)))) << k
+        });
+        if signs == 0 || signs == 0xFF {
+            continue;
+        }
+        // As the node-by-node search finds them.
+        let vertex = |e: u8| {
+            let (a, _) = EDGE_CORNERS[e as usize];
+            let along = IVec3::AXES[edge_axis(e as usize)];
+            let from = cell + corner_offset(a);
+            let (fa, fb) = (value(from), value(from + along));
+            let t = (fa / (fa - fb)).clamp(VERTEX_MARGIN, 1.0 - VERTEX_MARGIN);
+            from.as_vec3() + along.as_vec3() * t
+        };
+        let case = cases::table()[signs as usize].triangles();
+        for ((out, aabb), t) in triangles.iter_mut().zip(&mut boxes).zip(case) {
+            *out = t.map(vertex);
+            *aabb = (
+                out[0].min(out[1]).min(out[2]),
+                out[0].max(out[1]).max(out[2]),
+            );
+        }
+        for k in 0..8 {
+            let n = cell + corner_offset(k);
+            if !is_wanted(n) {
+                continue;
+            }
+            let (p, slot) = (n.as_vec3(), &mut best[node_offset(n.x, n.y, n.z)]);
+            for (&[a, b, c], &(lo, hi)) in triangles.iter().zip(&boxes).take(case.len()) {
+                // A triangle whose box lies farther than the best so far cannot lower
+                // it (the margin covers rounding: the minimum stays bit for bit).
+                let outside = (lo - p).max(p - hi).max(Vec3::ZERO);
+                if outside.length_squared() > *slot * *slot * (1.0 + 1e-4) {
+                    continue;
+                }
+                *slot = slot.min(crate::mesh::point_triangle_distance(p, a, b, c));
+            }
+        }
+    }
 }
 
 /// Meshes a grid copied from VDB, `value` mapping its values into [-1, 1] with the surface
@@ -475,6 +551,57 @@ mod tests {
             }
         }
         assert!(checked > 1000, "{checked}");
+    }
+
+    #[test]
+    fn distances_by_block_are_those_node_by_node_bit_for_bit() {
+        use crate::target::{sample, Sphere};
+        let sphere = Sphere {
+            center: Vec3::new(0.013, -0.021, 0.007),
+            radius: 0.33,
+        };
+        let data = sample::level_set(&sphere, 0.05, 3.0);
+        let mut grid = SparseGrid::<f32>::new();
+        grid.import(&data, |v| v);
+        // Roughened in steps of 1/32, so that thin parts, necks and nodes at exactly 0
+        // occur.
+        for block in grid.blocks_mut() {
+            let base = block.coord * BLOCK_DIM;
+            for (offset, v) in block.values.iter_mut().enumerate() {
+                let p = base + offset_coords(offset);
+                let h = [73_856_093, 19_349_663, 83_492_791]
+                    .iter()
+                    .zip(p.to_array())
+                    .fold(0u32, |h, (k, c)| h ^ (c as u32).wrapping_mul(*k));
+                *v = ((*v + (h % 17) as f32 / 40.0 - 0.2) * 32.0).round() / 32.0;
+            }
+        }
+        let mut halo = Box::<Halo>::default();
+        let (mut compared, mut finite) = (0, 0);
+        for (b, block) in grid.blocks().iter().enumerate() {
+            halo.gather(&grid, block);
+            // Every other node wanted, every third block with a bound to stay under.
+            let bound = if b % 3 == 0 { 0.4 } else { f32::INFINITY };
+            let mut wanted = [0u64; 8];
+            let mut best = [f32::NAN; BLOCK_NODES];
+            for offset in (b % 2..BLOCK_NODES).step_by(2) {
+                wanted[offset / 64] |= 1 << (offset % 64);
+                best[offset] = bound;
+            }
+            distances_in_cells_around(&halo, &wanted, &mut best);
+            for offset in 0..BLOCK_NODES {
+                let l = offset_coords(offset);
+                if wanted[offset / 64] >> (offset % 64) & 1 == 0 {
+                    assert!(best[offset].is_nan(), "an unwanted node was written");
+                    continue;
+                }
+                let one = distance_in_cells_around(&halo, l).min(bound);
+                assert_eq!(best[offset].to_bits(), one.to_bits(), "{l} in block {b}");
+                compared += 1;
+                finite += usize::from(one.is_finite() && one < 0.4);
+            }
+        }
+        assert!(compared > 5000 && finite > 1000, "{compared} {finite}");
     }
 
     /// A repeatable rough potential on nodes `lo..hi`: a wavy field a third of a voxel

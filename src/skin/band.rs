@@ -9,6 +9,7 @@ use crate::grid::{
     bits, mask_offsets, node_offset, offset_coords, Block, Halo, InsideRows, Potential, SparseGrid,
     AROUND, BLOCK_DIM, BLOCK_NODES,
 };
+use crate::polygonize::distances_in_cells_around;
 
 /// One Jacobi sweep of the Godunov upwind scheme for |∇f| = 1/w, over active nodes not
 /// next to the skin (no face neighbour of the other sign: those define it and keep their
@@ -80,18 +81,17 @@ fn slope(halo: &Halo, l: IVec3) -> f32 {
 }
 
 /// Makes the potential a signed distance next to the skin, for export: each node with an
-/// edge crossing takes `distance(halo, local node, bound)` (voxels: its exact distance to
-/// the skin's mesh, at most `bound`, its nearest crossing) with its sign, unless its slope
-/// is within [`KEPT_WITHIN`] of 1. The nodes farther out already hold the
-/// renormalised distance from these. The skin moves by second-order terms only: on an
-/// edge crossed at t, distances t·c and (1−t)·c keep the crossing at t.
+/// edge crossing takes its exact distance to the skin's mesh (voxels, the triangles the
+/// polygonizer cuts in the cells around it; at most its nearest crossing) with its
+/// sign, unless its slope is within [`KEPT_WITHIN`] of 1. The nodes farther out already
+/// hold the renormalised distance from these. The skin moves by second-order terms
+/// only: on an edge crossed at t, distances t·c and (1−t)·c keep the crossing at t.
 pub(crate) fn redistance<P: Potential>(
     grid: &mut SparseGrid<P>,
     band_width: f32,
-    distance: impl Fn(&Halo, IVec3, f32) -> f32 + Sync,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
 ) {
-    redistance_within(grid, band_width, KEPT_WITHIN, distance, scratch);
+    redistance_within(grid, band_width, KEPT_WITHIN, scratch);
 }
 
 /// [`redistance`], keeping the nodes whose slope is within `kept_within` of 1 (none at 0).
@@ -99,65 +99,40 @@ pub(crate) fn redistance_within<P: Potential>(
     grid: &mut SparseGrid<P>,
     band_width: f32,
     kept_within: f32,
-    distance: impl Fn(&Halo, IVec3, f32) -> f32 + Sync,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
-) {
-    sweep(grid, scratch, |halo, l, _, f| {
-        let mut bound = f32::INFINITY;
-        for e in IVec3::AXES {
-            for n in [l - e, l + e] {
-                let g = halo.at(n.x, n.y, n.z);
-                if (g < 0.0) != (f < 0.0) {
-                    bound = bound.min(f / (f - g));
-                }
-            }
-        }
-        if bound > 1.0 {
-            return f; // not next to the skin
-        }
-        if (slope(halo, l) * band_width - 1.0).abs() < kept_within {
-            return f;
-        }
-        let d = (distance(halo, l, bound) / band_width).min(1.0);
-        if d.is_finite() {
-            f.signum() * d
-        } else {
-            f
-        }
-    });
-}
-
-/// Replaces each active node's value by `update(halo, local, global, f)`, read from the
-/// values before the sweep (Jacobi); `scratch` is reused.
-fn sweep<P: Potential>(
-    grid: &mut SparseGrid<P>,
-    scratch: &mut Vec<[f32; BLOCK_NODES]>,
-    update: impl Fn(&Halo, IVec3, IVec3, f32) -> f32 + Sync,
-) {
-    sweep_nodes(grid, scratch, false, update);
-}
-
-/// [`sweep`] over the active nodes, or over every stored node when `all` (a start, before
-/// the tube exists).
-fn sweep_nodes<P: Potential>(
-    grid: &mut SparseGrid<P>,
-    scratch: &mut Vec<[f32; BLOCK_NODES]>,
-    all: bool,
-    update: impl Fn(&Halo, IVec3, IVec3, f32) -> f32 + Sync,
 ) {
     each_halo(grid, scratch, |halo, block, out| {
-        let base = block.coord * BLOCK_DIM;
-        let visit = |offset: usize| {
+        // The nodes to re-distance, each with its nearest crossing along an edge.
+        let mut wanted = [0u64; 8];
+        for offset in block.active_offsets() {
             let l = offset_coords(offset);
-            out[offset] = update(halo, l, base + l, halo.at(l.x, l.y, l.z));
-        };
-        if all {
-            (0..BLOCK_NODES).for_each(visit);
-        } else {
-            block.active_offsets().for_each(visit);
+            let f = halo.at(l.x, l.y, l.z);
+            out[offset] = f;
+            let mut bound = f32::INFINITY;
+            for e in IVec3::AXES {
+                for n in [l - e, l + e] {
+                    let g = halo.at(n.x, n.y, n.z);
+                    if (g < 0.0) != (f < 0.0) {
+                        bound = bound.min(f / (f - g));
+                    }
+                }
+            }
+            // Not next to the skin, or a distance already.
+            if bound > 1.0 || (slope(halo, l) * band_width - 1.0).abs() < kept_within {
+                continue;
+            }
+            out[offset] = bound;
+            wanted[offset / 64] |= 1 << (offset % 64);
+        }
+        distances_in_cells_around(halo, &wanted, out);
+        for offset in mask_offsets(wanted) {
+            let l = offset_coords(offset);
+            let f = halo.at(l.x, l.y, l.z);
+            let d = (out[offset] / band_width).min(1.0);
+            out[offset] = if d.is_finite() { f.signum() * d } else { f };
         }
     });
-    write_back(grid, scratch, all);
+    write_back(grid, scratch, false);
 }
 
 /// Runs `visit(halo, block, out)` on every block with its halo gathered, `out` its slot of

@@ -5,7 +5,6 @@ use glam::IVec3;
 
 use super::{band, Skin, SkinError};
 use crate::grid::{Potential, BLOCK_DIM, BLOCK_NODES};
-use crate::polygonize::distance_in_cells_around;
 use crate::target::Target;
 use crate::volume::{GridClass, GridData, Tile, Transform, MASK_WORDS};
 
@@ -21,12 +20,7 @@ impl<P: Potential> Skin<P> {
         let w = self.params.band_width;
         let background = self.background();
         let mut grid = self.grid.clone();
-        band::redistance(
-            &mut grid,
-            w,
-            |halo, l, bound| distance_in_cells_around(halo, l).min(bound),
-            &mut Vec::new(),
-        );
+        band::redistance(&mut grid, w, &mut Vec::new());
         let origin = self.xf.origin.as_dvec3().to_array();
         let transform = Transform::uniform(f64::from(dx), origin);
         let mut data = GridData::empty("surface", GridClass::LevelSet, background, transform);

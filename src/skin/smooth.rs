@@ -25,7 +25,6 @@ use super::Skin;
 use crate::grid::{
     mask_offsets, node_offset, offset_coords, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES,
 };
-use crate::polygonize::distance_in_cells_around;
 use crate::target::Target;
 
 /// Half-depth (scaled potential, f = φ/(wΔx)) under which a feature is thin and spared
@@ -168,13 +167,7 @@ impl<P: Potential> Skin<P> {
     pub(super) fn refit_band(&mut self) {
         crate::grid::tube::upkeep(&mut self.grid);
         let w = self.params.band_width;
-        band::redistance_within(
-            &mut self.grid,
-            w,
-            0.0,
-            |halo, l, bound| distance_in_cells_around(halo, l).min(bound),
-            &mut self.rates,
-        );
+        band::redistance_within(&mut self.grid, w, 0.0, &mut self.rates);
         for _ in 0..2 * w.ceil() as usize {
             band::renormalize(&mut self.grid, w, 0.0, &mut self.rates);
         }
@@ -249,9 +242,10 @@ fn target_distances<P: Potential>(
         .collect()
 }
 
-/// Each stored node's weight in 0..=1, blocks in the grid's order: 1 where the liquid
-/// reaches deeper than [`DEEP`] within [`REACH`] voxels or the skin is flat there, 0
-/// where it is both thin and curved (a droplet, a sheet's rim), smooth between.
+/// Each node's weight in 0..=1 next to the skin (0 farther, where the flow moves
+/// nothing), blocks in the grid's order: 1 where the liquid reaches deeper than [`DEEP`]
+/// within [`REACH`] voxels or the skin is flat there, 0 where it is both thin and curved
+/// (a droplet, a sheet's rim), smooth between.
 fn thin_weights<P: Potential>(
     grid: &SparseGrid<P>,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
@@ -264,8 +258,12 @@ fn thin_weights<P: Potential>(
         .par_iter_mut()
         .zip(grid.blocks().par_iter().zip(sides))
         .for_each_init(Box::<Halo>::default, |halo, (w, (block, (lo, hi)))| {
-            halo.gather(grid, block);
+            let mut gathered = false;
             for offset in mask_offsets(block.active) {
+                // Only nodes next to the skin ever move (`curvature_step`).
+                if block.values[offset].to_f32().abs() >= NEXT_TO_SKIN {
+                    continue;
+                }
                 let (lo, hi) = (lo.values[offset].to_f32(), hi.values[offset].to_f32());
                 // Only the skin's own neighbourhood moves: a shallow dip of the
                 // potential deep inside (or outside) would close into a bubble.
@@ -273,6 +271,14 @@ fn thin_weights<P: Potential>(
                     continue;
                 }
                 let deep = smoothstep((-lo - THIN) / (DEEP - THIN));
+                if deep >= 1.0 {
+                    w[offset] = 1.0;
+                    continue;
+                }
+                if !gathered {
+                    halo.gather(grid, block);
+                    gathered = true;
+                }
                 let l = offset_coords(offset);
                 let bend = bending(|x, y, z| halo.at(l.x + x, l.y + y, l.z + z));
                 let flat = smoothstep((CURVED - bend) / (CURVED - FLAT));
