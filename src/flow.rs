@@ -13,7 +13,7 @@ pub use nodes::OnNodes;
 use crate::grid::Aabb;
 
 /// A velocity field, world units per second.
-pub trait Flow: Sync {
+pub trait Flow: Sync + Send {
     fn velocity(&self, p: Vec3) -> Vec3;
 
     /// Whether a sample costs more than reading eight stored nodes (a velocity grid's
@@ -46,7 +46,7 @@ impl<F: Flow + ?Sized + Send> Flow for std::sync::Arc<F> {
 /// says where each particle was a frame before, that motion is known exactly at the
 /// particles, and the skin is carried by it in one trace a frame
 /// ([`crate::skin::Skin::carry`]) instead of sub-steps of a velocity.
-pub trait FlowMap: Sync {
+pub trait FlowMap: Sync + Send {
     fn departure(&self, p: Vec3, duration: f32) -> Option<Vec3>;
     /// [`FlowMap::departure`] at each node of one block, the node at offset `o` (OpenVDB's
     /// leaf order) at `corner + dx·offset_coords(o)`; node by node unless a map knows

@@ -227,14 +227,19 @@ fn surface_values(
 /// of the frames at the ends of the interval as `timing` says. Frames
 /// before `write_from` are a warm-up (a farm chunk converging to the sequential run) and
 /// write nothing. With `outputs.resume()`, starts after the last skin VDB already written
-/// from `write_from` on.
+/// from `write_from` on. With `read_ahead`, each frame's input is read while the frame
+/// before settles and is written (on two cores the reading fills the gaps of the
+/// settling's parallel work); the frames are the same either way.
 pub fn run<'t>(
     (first, last): (i64, i64),
     write_from: i64,
     mut skin: AnySkin,
     (fps, timing): (f64, Timing),
     outputs: &mut Outputs,
-    mut input_at: impl FnMut(i64) -> Result<FrameInput<'t>, FrameError>,
+    (read_ahead, mut input_at): (
+        bool,
+        impl FnMut(i64) -> Result<FrameInput<'t>, FrameError> + Send,
+    ),
 ) -> Result<(), FrameError> {
     check_fps(fps)?;
     // Moved on by a resume, which needs OpenVDB.
@@ -283,6 +288,9 @@ pub fn run<'t>(
     let attributes = outputs.vertices_hold_values();
     let mut settled_before = restored.filter(|_| any_velocities);
     let smooths = skin.params().smoothing > 0.0;
+    // The next frame's input, read while this one settles and is written (it does not
+    // depend on the skin): its error, if any, is said once this frame is written.
+    let mut next: Option<Result<FrameInput<'t>, FrameError>> = None;
     for frame in start..=last {
         let started = Instant::now();
         let duration = 1.0 / fps;
@@ -294,7 +302,10 @@ pub fn run<'t>(
                 false => None,
             }
         } else {
-            Some(input_at(frame)?)
+            Some(match next.take() {
+                Some(read) => read?,
+                None => input_at(frame)?,
+            })
         };
         let substeps = match &input {
             Some(input) if frame != first => {
@@ -347,37 +358,49 @@ pub fn run<'t>(
             .as_ref()
             .filter(|_| smooths)
             .map(|i| &*i.target as &dyn Target);
-        let level_set = skin.settle_holding(hold, near);
-        if frame >= write_from {
-            let stats = crate::skin::StepStats {
-                substeps,
-                ..skin.stats_with(outputs.reports_topology())
-            };
-            let dx = skin.params().dx;
-            let before = settled_before
-                .as_ref()
-                .map(|b| (LevelSetTarget::new(b), b.background - dx));
-            let motion = SurfaceMotion {
-                motion: motion_of(input.as_ref()),
-                before: before.as_ref().map(|(t, reach)| (t as &dyn Target, *reach)),
-                duration: duration as f32,
-                dx,
-            };
-            let surface = surface_values(
-                (&skin, &level_set),
-                input.as_ref(),
-                &motion,
-                (velocities, attributes),
-            );
-            let motion = render_motion.then_some(&motion);
-            outputs.write_frame(
-                frame,
-                (&skin, &level_set),
-                (&surface, motion),
-                &stats,
-                started,
-            )?;
-        }
+        let settled = |skin: &mut AnySkin, outputs: &mut Outputs| {
+            let level_set = skin.settle_holding(hold, near);
+            if frame >= write_from {
+                let stats = crate::skin::StepStats {
+                    substeps,
+                    ..skin.stats_with(outputs.reports_topology())
+                };
+                let dx = skin.params().dx;
+                let before = settled_before
+                    .as_ref()
+                    .map(|b| (LevelSetTarget::new(b), b.background - dx));
+                let motion = SurfaceMotion {
+                    motion: motion_of(input.as_ref()),
+                    before: before.as_ref().map(|(t, reach)| (t as &dyn Target, *reach)),
+                    duration: duration as f32,
+                    dx,
+                };
+                let surface = surface_values(
+                    (skin, &level_set),
+                    input.as_ref(),
+                    &motion,
+                    (velocities, attributes),
+                );
+                let motion = render_motion.then_some(&motion);
+                outputs.write_frame(
+                    frame,
+                    (skin, &level_set),
+                    (&surface, motion),
+                    &stats,
+                    started,
+                )?;
+            }
+            Ok::<_, FrameError>(level_set)
+        };
+        let level_set = match read_ahead && frame < last {
+            true => {
+                let (settled, read) =
+                    rayon::join(|| settled(&mut skin, outputs), || input_at(frame + 1));
+                next = Some(read);
+                settled?
+            }
+            false => settled(&mut skin, outputs)?,
+        };
         if let Some(input) = input {
             previous = Some(Before::of(input));
         }

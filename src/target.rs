@@ -28,7 +28,7 @@ pub fn gradient(target: &dyn Target, p: Vec3, h: f32) -> Vec3 {
 /// A target surface. `distance` is signed, negative inside, in world units: exact for
 /// level sets and analytic shapes; for density fields, (iso − G)/|∇G|, the first-order
 /// distance to the iso-surface, so that α is a rate (1/s) whatever the target.
-pub trait Target: Sync {
+pub trait Target: Sync + Send {
     fn distance(&self, p: Vec3) -> f32;
     /// Whether `p` is inside: `distance(p) < 0`, sooner where that is cheaper to know.
     fn inside(&self, p: Vec3) -> bool {

@@ -90,7 +90,7 @@ pub fn run_frames<'t>(
     motion: (f64, Timing),
     outputs: &OutputArgs,
     reads: Vec<FramePattern>,
-    input_at: impl FnMut(i64) -> Result<FrameInput<'t>, FrameError>,
+    input_at: impl FnMut(i64) -> Result<FrameInput<'t>, FrameError> + Send,
 ) -> anyhow::Result<()> {
     let spec = OutputSpec {
         reads,
@@ -103,7 +103,7 @@ pub fn run_frames<'t>(
         skin,
         motion,
         &mut outputs,
-        input_at,
+        (true, input_at),
     )?)
 }
 
@@ -305,6 +305,6 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
         skin,
         (args.physics.fps, velocity_timing(args, estimate.as_ref())),
         &mut outputs,
-        input_at,
+        (true, input_at),
     )?)
 }

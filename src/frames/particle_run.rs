@@ -34,12 +34,17 @@ pub struct ParticleRun<'a> {
 
 /// Where a particle run's frames come from: files (`--particles`), or particles handed
 /// over frame by frame (the Python API).
-pub trait ParticleSource {
+pub trait ParticleSource: Send {
     /// The particles of `frame` and the path naming them in messages; `Ok(None)` when the
     /// source has no such frame.
     fn particles(&mut self, frame: i64) -> Result<Option<(Particles, PathBuf)>, FrameError>;
     /// Why frame `frame` cannot be had, when it was needed.
     fn missing(&self, frame: i64) -> FrameError;
+    /// Whether the next frame may be asked for while the current one settles: not where
+    /// asking waits on a caller who is waiting for that frame's surface.
+    fn reads_ahead(&self) -> bool {
+        true
+    }
 }
 
 /// The frames of a pattern, read from their files.
@@ -74,7 +79,7 @@ impl ParticleRun<'_> {
     pub fn run(
         &self,
         outputs: &mut Outputs,
-        note: &mut dyn FnMut(String),
+        note: &mut (dyn FnMut(String) + Send),
     ) -> Result<(), FrameError> {
         self.run_from(&mut Files(self.input), outputs, note)
     }
@@ -84,7 +89,7 @@ impl ParticleRun<'_> {
         &self,
         source: &mut dyn ParticleSource,
         outputs: &mut Outputs,
-        note: &mut dyn FnMut(String),
+        note: &mut (dyn FnMut(String) + Send),
     ) -> Result<(), FrameError> {
         self.particles.check()?;
         super::check_fps(self.fps)?;
@@ -113,6 +118,7 @@ impl ParticleRun<'_> {
             }
             _ => None,
         };
+        let read_ahead = source.reads_ahead();
         let mut frame_at = |frame: i64| -> Result<Read, FrameError> {
             let Some((cloud, path)) = source.particles(frame)? else {
                 return Err(source.missing(frame));
@@ -161,7 +167,7 @@ impl ParticleRun<'_> {
             skin,
             (self.fps, self.timing),
             outputs,
-            |frame| {
+            (read_ahead, |frame| {
                 let (density, carried, count, attributes) = match first.take() {
                     Some((grid, attributes)) if frame == range.0 => {
                         (grid, false, count, attributes)
@@ -184,7 +190,7 @@ impl ParticleRun<'_> {
                     volume: share.map(|share| share * count),
                     attributes,
                 })
-            },
+            }),
         )
     }
 

@@ -97,6 +97,11 @@ impl ParticleSource for Handed {
     fn missing(&self, frame: i64) -> FrameError {
         FrameError::Data(format!("frame {frame}: no particles"))
     }
+
+    /// The caller hands the next frame once it has this one's surface.
+    fn reads_ahead(&self) -> bool {
+        false
+    }
 }
 
 /// A particle skin advanced by particles handed over one frame at a time.
@@ -337,7 +342,7 @@ fn run_level_sets(
     handed: Receiver<LevelSetFrame>,
     sink: SurfaceSink,
 ) -> Result<(), FrameError> {
-    let next = || {
+    let next = move || {
         handed
             .recv()
             .map_err(|_| FrameError::Data("no more frames".into()))
@@ -384,9 +389,11 @@ fn run_level_sets(
         skin,
         (fps, spec.timing),
         &mut outputs,
-        |frame| match frame == first {
+        // Not read ahead: the caller hands the next frame once it has this one's
+        // surface. (Moved in: the loop's input is Send, the receiver is not Sync.)
+        (false, move |frame| match frame == first {
             true => read(first_target.clone()).map(input),
             false => read(next()?).map(input),
-        },
+        }),
     )
 }

@@ -71,7 +71,7 @@ impl VelocityInput {
         target_file: &Path,
         frame: i64,
         frame_time: f64,
-        note: &mut dyn FnMut(String),
+        note: &mut (dyn FnMut(String) + Send),
     ) -> Result<Option<GridFlow>, FrameError> {
         let Some((path, grid)) = self.grid(target_file, frame, note)? else {
             return Ok(None);
@@ -87,7 +87,7 @@ impl VelocityInput {
         &self,
         target_file: &Path,
         frame: i64,
-        note: &mut dyn FnMut(String),
+        note: &mut (dyn FnMut(String) + Send),
     ) -> Result<Option<(PathBuf, VectorGrid)>, FrameError> {
         let path = match &self.files {
             Some(pattern) => pattern.path(frame),
