@@ -242,15 +242,95 @@ pub fn run<'t>(
     ),
 ) -> Result<(), FrameError> {
     check_fps(fps)?;
-    // Moved on by a resume, which needs OpenVDB.
-    #[cfg_attr(not(feature = "vdb"), allow(unused_mut))]
-    let mut start = first;
-    // The skin a resume starts from, as written.
-    #[cfg_attr(not(feature = "vdb"), allow(unused_mut))]
-    let mut restored: Option<GridData> = None;
     skin.limit_substeps(Some(crate::skin::MAX_SUBSTEPS));
     outputs.frame_camera(skin.mesh());
     outputs.set_frame_rate(fps);
+    let (start, restored) = match resume(&mut skin, outputs, (first, last), write_from, fps)? {
+        Some((frame, data)) => (frame + 1, Some(data)),
+        None => (first, None),
+    };
+    // The velocity at the start of the interval being advanced, and the volume its target
+    // enclosed: read again after a resume (and for the first interval), as an
+    // uninterrupted run has them from the frame before — even when this frame has no
+    // velocity (an empty frame of a cache whose velocity the interval still uses).
+    let mut previous: Option<Before<'t>> = None;
+    let writing = Writing::of(outputs, write_from);
+    // The frame before's settled skin, where the surface's velocity is written: its
+    // motion over the frame is measured against it.
+    let mut settled_before = restored.filter(|_| writing.any_velocities());
+    let smooths = skin.params().smoothing > 0.0;
+    // The next frame's input, read while this one settles and is written (it does not
+    // depend on the skin): its error, if any, is said once this frame is written.
+    let mut next: Option<Result<FrameInput<'t>, FrameError>> = None;
+    for frame in start..=last {
+        let started = Instant::now();
+        let duration = 1.0 / fps;
+        let input = if frame == first {
+            // Read only for the velocity and attributes it has (the next frame reads it
+            // anyway), and for the smoothing to stay near, on every run alike.
+            match writing.reads_first(frame) || smooths {
+                true => Some(input_at(frame)?),
+                false => None,
+            }
+        } else {
+            Some(match next.take() {
+                Some(read) => read?,
+                None => input_at(frame)?,
+            })
+        };
+        let substeps = match &input {
+            Some(input) if frame != first => {
+                let before = || match previous.take() {
+                    Some(previous) => Ok(previous),
+                    None => input_at(frame - 1).map(Before::of),
+                };
+                advance_frame(&mut skin, input, before, (frame, fps, timing))?
+            }
+            _ => 0,
+        };
+        let this = ThisFrame {
+            frame,
+            first: frame == first,
+            input: input.as_ref(),
+            substeps,
+            duration: duration as f32,
+            started,
+            smooths,
+        };
+        let settle = |skin: &mut AnySkin, outputs: &mut Outputs| {
+            settle_and_write(skin, outputs, &writing, &this, settled_before.as_ref())
+        };
+        let level_set = match read_ahead && frame < last {
+            true => {
+                let (settled, read) =
+                    rayon::join(|| settle(&mut skin, outputs), || input_at(frame + 1));
+                next = Some(read);
+                settled?
+            }
+            false => settle(&mut skin, outputs)?,
+        };
+        if let Some(input) = input {
+            previous = Some(Before::of(input));
+        }
+        if writing.any_velocities() {
+            settled_before = Some(level_set);
+        }
+    }
+    outputs.finish();
+    Ok(())
+}
+
+/// Where a resumed run starts: the last frame whose skin VDB `outputs` already hold
+/// (from `write_from` on), restored into `skin` and returned with its level set; `None`
+/// without `outputs.resume()` or such a frame.
+#[cfg_attr(not(feature = "vdb"), allow(unused_variables))]
+fn resume(
+    skin: &mut AnySkin,
+    outputs: &mut Outputs,
+    (first, last): (i64, i64),
+    write_from: i64,
+    fps: f64,
+) -> Result<Option<(i64, GridData)>, FrameError> {
     // Without OpenVDB there is no --out to resume from (Outputs refuses it).
     #[cfg(feature = "vdb")]
     if outputs.resume() {
@@ -269,145 +349,149 @@ pub fn run<'t>(
                 FrameError::Data(format!("{}: cannot resume from it: {e}", path.display()))
             })?;
             skin.set_time((frame - first) as f64 / fps);
-            restored = Some(data);
             outputs.resume_stats(frame + 1)?;
             outputs.skip((frame - write_from.max(first) + 1) as u64);
-            start = frame + 1;
+            return Ok(Some((frame, data)));
         }
     }
-    // The velocity at the start of the interval being advanced, and the volume its target
-    // enclosed: read again after a resume (and for the first interval), as an
-    // uninterrupted run has them from the frame before — even when this frame has no
-    // velocity (an empty frame of a cache whose velocity the interval still uses).
-    let mut previous: Option<Before<'t>> = None;
-    // The frame before's settled skin, where the surface's velocity is written: its
-    // motion over the frame is measured against it.
-    let (mesh_velocities, grid_velocities, render_motion) = outputs.wants_velocities();
-    let velocities = (mesh_velocities, grid_velocities);
-    let any_velocities = mesh_velocities || grid_velocities || render_motion;
-    let attributes = outputs.vertices_hold_values();
-    let mut settled_before = restored.filter(|_| any_velocities);
-    let smooths = skin.params().smoothing > 0.0;
-    // The next frame's input, read while this one settles and is written (it does not
-    // depend on the skin): its error, if any, is said once this frame is written.
-    let mut next: Option<Result<FrameInput<'t>, FrameError>> = None;
-    for frame in start..=last {
-        let started = Instant::now();
-        let duration = 1.0 / fps;
-        let input = if frame == first {
-            // Read only for the velocity and attributes it has (the next frame reads it
-            // anyway), and for the smoothing to stay near, on every run alike.
-            match ((any_velocities || attributes) && frame >= write_from) || smooths {
-                true => Some(input_at(frame)?),
-                false => None,
-            }
-        } else {
-            Some(match next.take() {
-                Some(read) => read?,
-                None => input_at(frame)?,
-            })
-        };
-        let substeps = match &input {
-            Some(input) if frame != first => {
-                let stepped = match &input.carried {
-                    Some(map) => {
-                        // The flow map carries the skin; the attraction corrects the shape.
-                        skin.carry(&**map, duration as f32);
-                        skin.advance(&*input.target, duration)
-                    }
-                    None => {
-                        let Before {
-                            flow: before,
-                            volume: volume_before,
-                        } = match previous.take() {
-                            Some(previous) => previous,
-                            None => Before::of(input_at(frame - 1)?),
-                        };
-                        let mut mean = None;
-                        let flow =
-                            timing.interval(before.as_deref(), input.flow.as_deref(), &mut mean);
-                        match flow {
-                            // One trace over the frame, then the attraction.
-                            Some(flow) => {
-                                skin.follow(&*input.target, flow, duration, volume_before)
-                            }
-                            None => skin.advance(&*input.target, duration),
-                        }
-                    }
-                };
-                if let Some(stopped) = stepped.stopped {
-                    return Err(FrameError::Data(format!(
-                        "frame {frame} ({duration:.3e} s at {fps} fps) {stopped}"
-                    )));
-                }
-                if input.seed {
-                    skin.seed(&*input.target);
-                }
-                stepped.substeps
-            }
-            _ => 0,
-        };
-        // The volume the frame's input holds, given back as the frame ends.
-        let hold = input
-            .as_ref()
-            .filter(|_| frame != first)
-            .and_then(|i| i.volume);
-        // The smoothing stays near the frame's target (read on the first frame too
-        // whenever the skin smooths, whatever the outputs).
-        let near = input
-            .as_ref()
-            .filter(|_| smooths)
-            .map(|i| &*i.target as &dyn Target);
-        let settled = |skin: &mut AnySkin, outputs: &mut Outputs| {
-            let level_set = skin.settle_holding(hold, near);
-            if frame >= write_from {
-                let stats = crate::skin::StepStats {
-                    substeps,
-                    ..skin.stats_with(outputs.reports_topology())
-                };
-                let dx = skin.params().dx;
-                let before = settled_before
-                    .as_ref()
-                    .map(|b| (LevelSetTarget::new(b), b.background - dx));
-                let motion = SurfaceMotion {
-                    motion: motion_of(input.as_ref()),
-                    before: before.as_ref().map(|(t, reach)| (t as &dyn Target, *reach)),
-                    duration: duration as f32,
-                    dx,
-                };
-                let surface = surface_values(
-                    (skin, &level_set),
-                    input.as_ref(),
-                    &motion,
-                    (velocities, attributes),
-                );
-                let motion = render_motion.then_some(&motion);
-                outputs.write_frame(
-                    frame,
-                    (skin, &level_set),
-                    (&surface, motion),
-                    &stats,
-                    started,
-                )?;
-            }
-            Ok::<_, FrameError>(level_set)
-        };
-        let level_set = match read_ahead && frame < last {
-            true => {
-                let (settled, read) =
-                    rayon::join(|| settled(&mut skin, outputs), || input_at(frame + 1));
-                next = Some(read);
-                settled?
-            }
-            false => settled(&mut skin, outputs)?,
-        };
-        if let Some(input) = input {
-            previous = Some(Before::of(input));
+    Ok(None)
+}
+
+/// Advances `skin` over one frame to `input` (not the first): carried by the input's
+/// flow map, or by the velocities at the interval's ends (`before`: the frame before's,
+/// asked for only then) as `timing` says, attracted, then seeded where the input asks.
+/// The sub-steps taken; `Err` where the advance would take more than a run allows.
+fn advance_frame<'t>(
+    skin: &mut AnySkin,
+    input: &FrameInput<'t>,
+    before: impl FnOnce() -> Result<Before<'t>, FrameError>,
+    (frame, fps, timing): (i64, f64, Timing),
+) -> Result<u32, FrameError> {
+    let duration = 1.0 / fps;
+    let stepped = match &input.carried {
+        Some(map) => {
+            // The flow map carries the skin; the attraction corrects the shape.
+            skin.carry(&**map, duration as f32);
+            skin.advance(&*input.target, duration)
         }
-        if any_velocities {
-            settled_before = Some(level_set);
+        None => {
+            let Before {
+                flow: before,
+                volume: volume_before,
+            } = before()?;
+            let mut mean = None;
+            let flow = timing.interval(before.as_deref(), input.flow.as_deref(), &mut mean);
+            match flow {
+                // One trace over the frame, then the attraction.
+                Some(flow) => skin.follow(&*input.target, flow, duration, volume_before),
+                None => skin.advance(&*input.target, duration),
+            }
+        }
+    };
+    if let Some(stopped) = stepped.stopped {
+        return Err(FrameError::Data(format!(
+            "frame {frame} ({duration:.3e} s at {fps} fps) {stopped}"
+        )));
+    }
+    if input.seed {
+        skin.seed(&*input.target);
+    }
+    Ok(stepped.substeps)
+}
+
+/// What a run writes beside each frame's surface, the same on every frame.
+struct Writing {
+    write_from: i64,
+    /// The surface's velocity at the mesh's vertices, at the level set's voxels.
+    velocities: (bool, bool),
+    /// The velocity renderers read for motion blur.
+    render_motion: bool,
+    /// Particle attributes at the mesh's vertices.
+    attributes: bool,
+}
+
+impl Writing {
+    fn of(outputs: &Outputs, write_from: i64) -> Self {
+        let (mesh, grid, render_motion) = outputs.wants_velocities();
+        Writing {
+            write_from,
+            velocities: (mesh, grid),
+            render_motion,
+            attributes: outputs.vertices_hold_values(),
         }
     }
-    outputs.finish();
-    Ok(())
+
+    fn any_velocities(&self) -> bool {
+        self.velocities.0 || self.velocities.1 || self.render_motion
+    }
+
+    /// Whether the first frame's input is read for what is written of it.
+    fn reads_first(&self, frame: i64) -> bool {
+        (self.any_velocities() || self.attributes) && frame >= self.write_from
+    }
+}
+
+/// The frame being settled.
+struct ThisFrame<'a, 't> {
+    frame: i64,
+    /// The run's first frame, which the skin starts on.
+    first: bool,
+    input: Option<&'a FrameInput<'t>>,
+    substeps: u32,
+    duration: f32,
+    started: Instant,
+    smooths: bool,
+}
+
+/// Ends `this` frame: the skin settled (held to the volume its input holds, smoothed near
+/// its target) and, from the first frame written on, written with what `writing` asks
+/// (its velocity measured against the frame before's level set `before`). The settled
+/// level set.
+fn settle_and_write(
+    skin: &mut AnySkin,
+    outputs: &mut Outputs,
+    writing: &Writing,
+    this: &ThisFrame,
+    before: Option<&GridData>,
+) -> Result<GridData, FrameError> {
+    let ThisFrame { frame, input, .. } = *this;
+    // The volume the frame's input holds, given back as the frame ends (not on the
+    // first, which the skin starts on).
+    let hold = input.filter(|_| !this.first).and_then(|i| i.volume);
+    // The smoothing stays near the frame's target (read on the first frame too
+    // whenever the skin smooths, whatever the outputs).
+    let near = input
+        .filter(|_| this.smooths)
+        .map(|i| &*i.target as &dyn Target);
+    let level_set = skin.settle_holding(hold, near);
+    if frame < writing.write_from {
+        return Ok(level_set);
+    }
+    let stats = crate::skin::StepStats {
+        substeps: this.substeps,
+        ..skin.stats_with(outputs.reports_topology())
+    };
+    let dx = skin.params().dx;
+    let before = before.map(|b| (LevelSetTarget::new(b), b.background - dx));
+    let motion = SurfaceMotion {
+        motion: motion_of(input),
+        before: before.as_ref().map(|(t, reach)| (t as &dyn Target, *reach)),
+        duration: this.duration,
+        dx,
+    };
+    let surface = surface_values(
+        (skin, &level_set),
+        input,
+        &motion,
+        (writing.velocities, writing.attributes),
+    );
+    let motion = writing.render_motion.then_some(&motion);
+    outputs.write_frame(
+        frame,
+        (skin, &level_set),
+        (&surface, motion),
+        &stats,
+        this.started,
+    )?;
+    Ok(level_set)
 }
