@@ -88,8 +88,11 @@ impl<F: FlowMap + ?Sized + Send> FlowMap for std::sync::Arc<F> {
 /// about its axis, right-handed) around `center`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Rigid {
+    /// The point the rotation turns about, world units.
     pub center: Vec3,
+    /// Translation velocity, world units per second.
     pub linear: Vec3,
+    /// Angular velocity: its axis, its length radians per second.
     pub angular: Vec3,
 }
 
@@ -102,8 +105,11 @@ impl Flow for Rigid {
 /// A velocity field as a frame's map over `bounds` (everywhere in them): each point traced
 /// back through `flow` with RK4 steps of at most `step` world units (64 at most).
 pub struct Traced<'a> {
+    /// The velocity traced.
     pub flow: &'a dyn Flow,
+    /// Where the map answers, world units.
     pub bounds: Aabb,
+    /// The longest RK4 step, world units.
     pub step: f32,
 }
 

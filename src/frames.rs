@@ -117,7 +117,9 @@ pub fn check_fps(fps: f64) -> Result<(), FrameError> {
 
 /// What one frame brings: its target and, when known, the material's velocity then.
 pub struct FrameInput<'t> {
+    /// The surface the skin is attracted to at the frame's end.
     pub target: Box<dyn Target + 't>,
+    /// The material's velocity at the frame, when known (§7).
     pub flow: Option<Box<dyn Flow + 't>>,
     /// The motion over the frame interval that ends here, as a map ([`FlowMap`]: where
     /// the material was a frame before), when the input knows it (particles matched

@@ -241,7 +241,9 @@ pub(crate) struct BlockId(pub u32);
 pub(crate) struct Block<P> {
     /// Block coordinate: global node = 8 · coord + local.
     pub coord: IVec3,
+    /// The potential at the block's 8³ nodes, x-major (`node_offset`).
     pub values: [P; BLOCK_NODES],
+    /// The band's nodes among them, a bit per node offset.
     pub active: [u64; 8],
 }
 

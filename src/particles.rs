@@ -9,6 +9,7 @@ pub mod splash;
 /// One frame of particles.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Particles {
+    /// World units.
     pub positions: Vec<Vec3>,
     /// Per-particle radius, when the file has one.
     pub radii: Option<Vec<f32>>,
@@ -26,6 +27,7 @@ pub struct Particles {
 /// A per-particle quantity a simulator wrote, carried onto the surface by name.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Attribute {
+    /// Its name in the file (and on the mesh written).
     pub name: String,
     /// 1 for a scalar, 3 for a vector, as the file holds it.
     pub components: usize,

@@ -52,7 +52,9 @@ pub fn camera(view: View, up: Up) -> (Vec3, Vec3) {
 
 /// One rendered image.
 pub struct Render {
+    /// The image's width in pixels.
     pub width: usize,
+    /// The image's height in pixels.
     pub height: usize,
     /// Linear RGBA, premultiplied; row-major from the top-left pixel.
     pub rgba: Vec<[f32; 4]>,
@@ -64,6 +66,7 @@ pub struct Render {
     /// Nuke's `forward` channels), when the surface's velocity was given
     /// ([`Render::set_motion`]).
     pub motion: Option<Vec<[f32; 2]>>,
+    /// The camera it was rendered from.
     pub camera: Camera,
 }
 
@@ -71,11 +74,17 @@ pub struct Render {
 /// field of view and the image's aspect (width over height).
 #[derive(Debug, Clone, Copy)]
 pub struct Camera {
+    /// Where it looks from, world units.
     pub eye: Vec3,
+    /// Along the view (a unit vector).
     pub forward: Vec3,
+    /// Toward the image's right (a unit vector).
     pub right: Vec3,
+    /// Toward the image's top (a unit vector).
     pub up: Vec3,
+    /// tan(vertical field of view / 2).
     pub tan_half_fov: f32,
+    /// The image's width and height in pixels.
     pub size: (usize, usize),
 }
 

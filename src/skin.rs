@@ -41,6 +41,7 @@ const ADVECTION_CFL: f32 = 0.9;
 /// How the skin is discretised and advanced.
 #[derive(Debug, Clone, Copy)]
 pub struct SkinParams {
+    /// The speed function's gains (§3.4): attraction α, tension β, volume and area.
     pub speed: SpeedParams,
     /// Voxel size Δx, world units.
     pub dx: f32,
@@ -50,6 +51,8 @@ pub struct SkinParams {
     pub safety: f32,
     /// Upwind renormalisation sweeps per step (0: the paper's unrenormalised potential).
     pub renormalize_sweeps: u32,
+    /// How the potential is stored: 32-bit floats, or the paper's 16-bit fixed point
+    /// (half the memory, steps of 1/32767 of the band's half-width).
     pub precision: Precision,
     /// Smoothing at the particle scale as each frame settles: voxels² of curvature flow
     /// (`skin/smooth.rs`; 0: none, thin features spared, the volume kept).
@@ -76,14 +79,18 @@ impl Default for SkinParams {
 pub struct Physics {
     /// Δx; the input's own when not given.
     pub voxel_size: Option<f32>,
+    /// α, the attraction's rate (1/s): how fast the skin closes on its target.
     pub alpha: f32,
     /// β; [`SpeedParams::default_for`] the voxel size and α when not given.
     pub beta: Option<f32>,
+    /// The volume constraint's gain (§5.2): 0 leaves the volume free.
     pub volume_gain: f32,
+    /// The area constraint's gain (§5.2): 0 leaves the area free.
     pub area_gain: f32,
+    /// As [`SkinParams::precision`].
     pub precision: Precision,
-    /// How much smoothing, in units of [`SMOOTHING_UNIT`]; none when not given, 1 for
-    /// particles ([`Physics::particle_params`]).
+    /// How much smoothing, in units of [`SMOOTHING_UNIT`]; none when not given,
+    /// [`DEFAULT_PARTICLE_SMOOTHING`] for particles ([`Physics::particle_params`]).
     pub smoothing: Option<f32>,
 }
 
@@ -93,6 +100,10 @@ pub struct Physics {
 /// frame). Chosen on a SPlisHSPlasH dam break at cell = r (docs/particles.md, *Smoothing*): the
 /// particle-scale bumps of a moving liquid below smoothed splashsurf's at no more time.
 pub const SMOOTHING_UNIT: f32 = 8.0 / 3.0;
+
+/// How much smoothing a skin of particles takes when none is given, in units of
+/// [`SMOOTHING_UNIT`] (level sets take none: their caches are smooth already).
+pub const DEFAULT_PARTICLE_SMOOTHING: f32 = 1.0;
 
 impl Default for Physics {
     fn default() -> Self {
@@ -136,7 +147,10 @@ impl Physics {
         let dx = self.voxel_size.unwrap_or(default_dx);
         let radii = radius / dx;
         SkinParams {
-            smoothing: self.smoothing.unwrap_or(1.0) * SMOOTHING_UNIT * radii * radii,
+            smoothing: self.smoothing.unwrap_or(DEFAULT_PARTICLE_SMOOTHING)
+                * SMOOTHING_UNIT
+                * radii
+                * radii,
             ..self.params(default_dx)
         }
     }
@@ -176,12 +190,19 @@ impl SkinParams {
 /// What one step or one advance did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StepStats {
+    /// Sub-steps taken (0 for a settle alone).
     pub substeps: u32,
+    /// Active nodes of the band.
     pub band_nodes: usize,
+    /// Stored 8³ blocks.
     pub blocks: usize,
+    /// The mesh's area, world units².
     pub area: f64,
+    /// The volume the mesh encloses, world units³.
     pub volume: f64,
+    /// V − E + F of the mesh (2 a closed piece without handles; 0 when not counted).
     pub euler_characteristic: i64,
+    /// Connected pieces of the mesh (0 when not counted).
     pub components: usize,
     /// Largest |Δφ| / Δx of the last sub-step within w − 1 voxels of the skin (measured
     /// only when [`Skin::track_change`] is on).
@@ -195,7 +216,9 @@ pub struct StepStats {
 /// forced them.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Stopped {
+    /// The sub-steps the advance would have taken.
     pub needed: f64,
+    /// What made them that short.
     pub limit: StepLimit,
 }
 

@@ -31,11 +31,15 @@ pub const THIN_HAUSDORFF: f64 = 0.866;
 /// One quantity, ours against OpenVDB's.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Row {
+    /// The quantity (area, volume, distance ...).
     pub name: &'static str,
+    /// Our value.
     pub ours: f64,
+    /// OpenVDB's value.
     pub openvdb: f64,
     /// Relative for areas and volumes, absolute otherwise.
     pub difference: f64,
+    /// The largest `difference` that passes.
     pub tolerance: f64,
     /// For areas and volumes: the difference as a uniform offset of the surface, voxels.
     pub offset: Option<f64>,
@@ -62,6 +66,7 @@ impl Row {
 /// The comparison of one grid.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Report {
+    /// Each quantity compared.
     pub rows: Vec<Row>,
     /// checkLevelSet's diagnostic, empty when valid.
     pub check: String,

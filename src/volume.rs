@@ -22,9 +22,14 @@ pub enum GridClass {
 /// (root) voxels. Inactive tiles are what keep inside and outside apart.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tile {
+    /// Its lowest voxel, index coordinates.
     pub origin: [i32; 3],
+    /// Its side in voxels.
     pub dim: u32,
+    /// Every voxel's value.
     pub value: f32,
+    /// Whether its voxels are active (a fog's filled region); a level set's inside
+    /// tiles are inactive.
     pub active: bool,
 }
 
@@ -32,6 +37,7 @@ pub struct Tile {
 /// (world = [i j k 1] · M).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Transform {
+    /// 4×4, row-major: rows 0–2 the index axes in world units, row 3 the translation.
     pub matrix: [f64; 16],
 }
 
@@ -64,6 +70,7 @@ impl Transform {
         (d > 0.0 && linear && m[15] == 1.0).then_some((d, [m[12], m[13], m[14]]))
     }
 
+    /// The world position of index coordinates `ijk`.
     pub fn index_to_world(&self, ijk: [f64; 3]) -> [f64; 3] {
         let m = &self.matrix;
         std::array::from_fn(|c| ijk[0] * m[c] + ijk[1] * m[4 + c] + ijk[2] * m[8 + c] + m[12 + c])
@@ -73,15 +80,21 @@ impl Transform {
 /// A float grid copied into Rust, leaf by leaf.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GridData {
+    /// The grid's name in its file (`surface`, `density`, Mantaflow's `phi`).
     pub name: String,
+    /// What its values are (OpenVDB's grid class metadata).
     pub class: GridClass,
+    /// The value wherever nothing is stored (a level set's: its band's half-width).
     pub background: f32,
+    /// Index to world.
     pub transform: Transform,
     /// True when the transform is linear with one scale on all axes.
     pub uniform_linear: bool,
+    /// Each 8³ leaf's lowest voxel, index coordinates.
     pub leaf_origins: Vec<[i32; 3]>,
     /// `LEAF_VOXELS` values per leaf, leaves in the order of `leaf_origins`.
     pub leaf_values: Vec<f32>,
+    /// Each leaf's active voxels, a bit per voxel in OpenVDB's order (x·64 + y·8 + z).
     pub leaf_masks: Vec<[u64; MASK_WORDS]>,
     /// Constant regions above leaf level; inactive tiles equal to the background are
     /// implied and left out.
@@ -358,13 +371,21 @@ pub fn narrow_band_background(half_width: f32, voxel_size: f32) -> f32 {
 /// at v − ½ e_i in index space; in a collocated grid all three sit at v.
 #[derive(Debug, Clone, PartialEq)]
 pub struct VectorGrid {
+    /// The grid's name in its file (`vel`, Mantaflow's `velocity`).
     pub name: String,
+    /// Whether its components sit on the voxels' faces (MAC), as said above.
     pub staggered: bool,
+    /// Index to world.
     pub transform: Transform,
+    /// True when the transform is linear with one scale on all axes.
     pub uniform_linear: bool,
+    /// The vector wherever nothing is stored.
     pub background: [f32; 3],
+    /// Each 8³ leaf's lowest voxel, index coordinates.
     pub leaf_origins: Vec<[i32; 3]>,
+    /// `LEAF_VOXELS` vectors per leaf, leaves in the order of `leaf_origins`.
     pub leaf_values: Vec<[f32; 3]>,
+    /// Each leaf's active voxels, a bit per voxel in OpenVDB's order (x·64 + y·8 + z).
     pub leaf_masks: Vec<[u64; MASK_WORDS]>,
     /// Active constant regions above leaf level.
     pub tiles: Vec<VectorTile>,
@@ -403,8 +424,11 @@ fn active_in_leaves<'a>(
 /// An active constant region of a vector grid: `dim`³ voxels from `origin`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VectorTile {
+    /// Its lowest voxel, index coordinates.
     pub origin: [i32; 3],
+    /// Its side in voxels.
     pub dim: u32,
+    /// Every voxel's vector.
     pub value: [f32; 3],
 }
 

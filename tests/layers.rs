@@ -330,3 +330,221 @@ fn the_reader_sees_imports_and_skips_comments_and_tests() {
     );
     assert!(!kept.contains("crate::vdb"), "{kept}");
 }
+
+/// The `pub` fields of `text` with no doc comment (`///`, or clap's `help = ...`) above
+/// them, through their attributes: `name (line)`.
+fn undocumented_fields(text: &str) -> Vec<String> {
+    let lines: Vec<&str> = text.lines().collect();
+    let mut found = Vec::new();
+    for (i, line) in lines.iter().enumerate() {
+        let field = line.trim_start();
+        let Some(rest) = field.strip_prefix("pub ") else {
+            continue;
+        };
+        // A field: indented, `pub name: Type`.
+        let name: String = rest
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        if field.len() == line.len() || name.is_empty() || !rest[name.len()..].starts_with(": ") {
+            continue;
+        }
+        let mut above = lines[..i].iter().rev().map(|l| l.trim());
+        let documented = loop {
+            match above.next() {
+                Some(l) if l.starts_with("///") => break true,
+                Some(l) if l.starts_with("#[") && l.contains("help =") => break true,
+                Some(l)
+                    if l.starts_with("#[") || (l.starts_with("//") && !l.starts_with("///")) => {}
+                _ => break false,
+            }
+        };
+        if !documented {
+            found.push(format!("{name} (line {})", i + 1));
+        }
+    }
+    found
+}
+
+/// Every public field says what it holds (issue 50): a new one without a doc comment
+/// fails here.
+#[test]
+fn every_public_field_is_documented() {
+    let mut missing = Vec::new();
+    let mut files = Vec::new();
+    let mut folders = vec![Path::new(env!("CARGO_MANIFEST_DIR")).join("src")];
+    while let Some(folder) = folders.pop() {
+        for entry in std::fs::read_dir(&folder).unwrap() {
+            let path = entry.unwrap().path();
+            match path.is_dir() {
+                true => folders.push(path),
+                false if path.extension().is_some_and(|e| e == "rs") => files.push(path),
+                false => {}
+            }
+        }
+    }
+    assert!(files.len() > 50, "{} source files", files.len());
+    for path in files {
+        let text = std::fs::read_to_string(&path).unwrap();
+        for field in undocumented_fields(&text) {
+            missing.push(format!("{}: {field}", path.display()));
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "undocumented pub fields:\n{}",
+        missing.join("\n")
+    );
+}
+
+#[test]
+fn the_field_reader_sees_what_is_undocumented() {
+    let text = "pub struct A {\n    /// Said.\n    pub said: u8,\n    #[arg(long)]\n    pub bare: u8,\n    #[arg(long, help = h())]\n    pub helped: u8,\n    /// Said above an attribute.\n    #[arg(long)]\n    // A note.\n    pub noted: u8,\n}\npub fn f(pub_x: u8) {}\n";
+    assert_eq!(undocumented_fields(text), ["bare (line 5)"]);
+}
+
+/// The settings whose defaults the library owns, as the front ends name them.
+const DEFAULTED: &[&str] = &["alpha", "fps", "smooth", "smoothing_length"];
+
+/// The text of every call of `opener` (`signature = (`, `FloatProperty(`) in `text`,
+/// to its closing parenthesis.
+fn calls<'a>(text: &'a str, opener: &str) -> Vec<&'a str> {
+    let mut found = Vec::new();
+    for (at, _) in text.match_indices(opener) {
+        let body = &text[at + opener.len()..];
+        let mut depth = 1;
+        let end = body
+            .char_indices()
+            .find(|&(_, c)| {
+                depth += match c {
+                    '(' => 1,
+                    ')' => -1,
+                    _ => 0,
+                };
+                depth == 0
+            })
+            .map_or(body.len(), |(i, _)| i);
+        found.push(&body[..end]);
+    }
+    found
+}
+
+/// Where `list` (a signature's parameters) gives one of [`DEFAULTED`] a default that is
+/// not the library's constant (nor None: the library decides then).
+fn literal_defaults(list: &str) -> Vec<String> {
+    let flat: String = list.chars().filter(|c| !c.is_whitespace()).collect();
+    flat.split(',')
+        .filter_map(|param| param.split_once('='))
+        .filter(|(name, value)| {
+            DEFAULTED.contains(name) && !value.starts_with("DEFAULT_") && *value != "None"
+        })
+        .map(|(name, value)| format!("{name}={value}"))
+        .collect()
+}
+
+/// Each default is written once (issue 50): the library defines it, and the command's
+/// arguments, the Python signatures and the Blender panel take its value from there.
+#[test]
+fn each_default_is_written_once() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let read = |path: &str| std::fs::read_to_string(root.join(path)).unwrap();
+    let mut library = String::new();
+    let mut folders = vec![root.join("src")];
+    while let Some(folder) = folders.pop() {
+        for entry in std::fs::read_dir(&folder).unwrap() {
+            let path = entry.unwrap().path();
+            match path.is_dir() {
+                true => folders.push(path),
+                false => library += &std::fs::read_to_string(&path).unwrap(),
+            }
+        }
+    }
+    let mut found = Vec::new();
+    for name in [
+        "DEFAULT_ALPHA",
+        "DEFAULT_FPS",
+        "DEFAULT_SMOOTHING_LENGTH",
+        "DEFAULT_PARTICLE_SMOOTHING",
+    ] {
+        let defined = library.matches(&format!("const {name}:")).count();
+        if defined != 1 {
+            found.push(format!("{name} defined {defined} times"));
+        }
+    }
+    // The command: each such argument's default is a library constant.
+    for path in ["src/cli/args.rs", "src/cli/particles.rs"] {
+        let text = read(path);
+        let lines: Vec<&str> = text.lines().collect();
+        for (i, line) in lines.iter().enumerate() {
+            let field = line.trim_start().strip_prefix("pub ").unwrap_or_default();
+            let Some(name) = field.split(':').next().filter(|n| DEFAULTED.contains(n)) else {
+                continue;
+            };
+            let attribute = lines[..i]
+                .iter()
+                .rev()
+                .find(|l| l.trim_start().starts_with("#[arg"));
+            if let Some(value) = attribute.and_then(|a| a.split("default_value_t =").nth(1)) {
+                if !value.contains("DEFAULT_") {
+                    found.push(format!("{path}: --{name} defaults to{value}"));
+                }
+            }
+        }
+    }
+    // Python: the bindings' signatures and the package's functions.
+    for path in [
+        "python/src/particle_skin.rs",
+        "python/src/level_set_skin.rs",
+        "python/src/files.rs",
+        "python/src/mesh.rs",
+    ] {
+        for list in calls(&read(path), "signature = (") {
+            found.extend(
+                literal_defaults(list)
+                    .into_iter()
+                    .map(|d| format!("{path}: {d}")),
+            );
+        }
+    }
+    let package = read("python/activeskin/__init__.py");
+    // Each function's parameters: from its name's parenthesis to the closing one.
+    let functions = package.match_indices("\ndef ").filter_map(|(at, _)| {
+        let open = package[at..].find('(')?;
+        calls(&package[at..], "(")
+            .into_iter()
+            .next()
+            .filter(|_| open > 0)
+    });
+    for list in functions {
+        found.extend(
+            literal_defaults(list)
+                .into_iter()
+                .map(|d| format!("activeskin: {d}")),
+        );
+    }
+    // Blender: the panel's properties take the library's defaults as it registers.
+    let addon = read("blender/activeskin_blender/__init__.py");
+    for name in ["alpha", "smooth"] {
+        let property = calls(&addon, &format!("    {name}: bpy.props.FloatProperty("));
+        assert_eq!(property.len(), 1, "the add-on's {name}");
+        if property[0].contains("default=") {
+            found.push(format!("the add-on's {name} has a default of its own"));
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "defaults written twice:\n{}",
+        found.join("\n")
+    );
+}
+
+#[test]
+fn the_default_reader_sees_literals() {
+    assert_eq!(
+        literal_defaults(
+            "radius, *, alpha=4.0, fps=DEFAULT_FPS, smooth=None, smoothing_length = 2"
+        ),
+        ["alpha=4.0", "smoothing_length=2"]
+    );
+    assert_eq!(calls("f(a, g(b), c) d(e)", "f("), ["a, g(b), c"]);
+}

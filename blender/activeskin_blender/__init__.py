@@ -129,7 +129,7 @@ class ActiveSkinSettings(bpy.types.PropertyGroup):
         description="0 for the default: half the particle radius, or the Mantaflow cache's",
     )
     alpha: bpy.props.FloatProperty(
-        name="Attraction α", default=4.0, min=0.0,
+        name="Attraction α", min=0.0,
         description="How fast the skin closes on the particles (1/s): lower is smoother",
     )
     use_tension: bpy.props.BoolProperty(
@@ -142,7 +142,7 @@ class ActiveSkinSettings(bpy.types.PropertyGroup):
         description="Surface tension (units²/s); 0 for the default, α·voxel²/8",
     )
     smooth: bpy.props.FloatProperty(
-        name="Smoothing", default=1.0, min=0.0, soft_max=4.0,
+        name="Smoothing", min=0.0, soft_max=4.0,
         description="Smoothing of the particles' bumps, adding up from frame to frame "
         "(particles only): 0 none, 2 twice as much; droplets and thin sheets are spared",
     )
@@ -582,7 +582,21 @@ class ACTIVESKIN_PT_panel(bpy.types.Panel):
 classes = (ActiveSkinSettings, ACTIVESKIN_OT_bake, ACTIVESKIN_PT_panel)
 
 
+def _library_defaults():
+    """α and the smoothing default to the library's own values, read as the add-on
+    registers (the package it bundles or Blender installed for it)."""
+    library = _activeskin()
+    settings = ActiveSkinSettings.__annotations__
+    for name, default in (
+        ("alpha", library.DEFAULT_ALPHA),
+        ("smooth", library.DEFAULT_PARTICLE_SMOOTHING),
+    ):
+        prop = settings[name]
+        settings[name] = prop.function(**{**prop.keywords, "default": default})
+
+
 def register():
+    _library_defaults()
     for cls in classes:
         bpy.utils.register_class(cls)
     bpy.types.Scene.activeskin = bpy.props.PointerProperty(type=ActiveSkinSettings)

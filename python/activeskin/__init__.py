@@ -17,6 +17,7 @@ import warnings
 from ._activeskin import (
     DEFAULT_ALPHA,
     DEFAULT_FPS,
+    DEFAULT_PARTICLE_SMOOTHING,
     HAS_VDB,
     LevelSetSkin,
     Mesh,
@@ -36,6 +37,7 @@ if HAS_VDB:
 __all__ = [
     "DEFAULT_ALPHA",
     "DEFAULT_FPS",
+    "DEFAULT_PARTICLE_SMOOTHING",
     "HAS_VDB",
     "LevelSetSkin",
     "Mesh",

@@ -11,6 +11,8 @@ DEFAULT_ALPHA: float
 """The attraction rate α (1/s) the skins and the commands take when none is given."""
 DEFAULT_FPS: float
 """The frame rate the skins and the commands take when none is given."""
+DEFAULT_PARTICLE_SMOOTHING: float
+"""The smoothing a `ParticleSkin` takes when `smooth` is not given (level sets: none)."""
 
 def frame_path(pattern: str | PathLike[str], frame: int) -> PathLike[str]:
     """A frame's file in a pattern as the commands name it: ``####``, ``%04d`` and ``$F4``

@@ -63,6 +63,10 @@ fn _activeskin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(warmup_frames, m)?)?;
     m.add("DEFAULT_ALPHA", DEFAULT_ALPHA)?;
     m.add("DEFAULT_FPS", DEFAULT_FPS)?;
+    m.add(
+        "DEFAULT_PARTICLE_SMOOTHING",
+        activeskin::skin::DEFAULT_PARTICLE_SMOOTHING,
+    )?;
     #[cfg(feature = "vdb")]
     m.add_function(wrap_pyfunction!(measure_velocity, m)?)?;
     m.add_class::<ParticleSkin>()?;

@@ -32,11 +32,8 @@ pub struct PhysicsArgs {
     /// Voxel size of the skin (default: the target's for skin, radius/2 for particles).
     #[arg(long)]
     pub voxel_size: Option<f32>,
-    /// Smoothing of the surface at the particle scale, as each frame settles (it adds up
-    /// from frame to frame): 0 for none, 2 for twice as much (and twice its cost); the
-    /// volume kept, droplets and thin sheets spared, never half a voxel from the target
-    /// [default: 1 for particles, 0 for level sets]
-    #[arg(long)]
+    // The help's default is the library's.
+    #[arg(long, help = smooth_help())]
     pub smooth: Option<f32>,
     /// Storage of the potential: f32, or fixed16 (half the memory).
     #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
@@ -44,6 +41,14 @@ pub struct PhysicsArgs {
     // The help's figures come from the library's defaults.
     #[arg(long, help = warmup_help())]
     pub warmup: Option<String>,
+}
+
+/// `--smooth`'s help, its default the library's.
+fn smooth_help() -> String {
+    format!(
+        "Smoothing of the surface at the particle scale, as each frame settles (it adds up from frame to frame): 0 for none, 2 for twice as much (and twice its cost); the volume kept, droplets and thin sheets spared, never half a voxel from the target [default: {} for particles, 0 for level sets]",
+        activeskin::skin::DEFAULT_PARTICLE_SMOOTHING
+    )
 }
 
 /// `--warmup`'s help, its example computed at the default α and fps.
@@ -237,7 +242,9 @@ impl OutputArgs {
 pub struct Shot<'a> {
     /// Every frame of the shot.
     pub range: (i64, i64),
+    /// The skin's settings, as given.
     pub physics: &'a PhysicsArgs,
+    /// The outputs, as given.
     pub outputs: &'a OutputArgs,
     /// Options every chunk adds, so that all read the shot alike.
     pub fixed: Vec<String>,

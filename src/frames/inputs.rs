@@ -34,8 +34,11 @@ pub fn auto_warmup(alpha: f64, fps: f64) -> i64 {
 /// An input sequence: its pattern, the frames found on disk (sorted; none for one held
 /// file), the range to run.
 pub struct InputFrames {
+    /// The frame pattern (`####`, `$F4`, `{}`), or one file held for every frame.
     pub pattern: FramePattern,
+    /// The frame numbers found on disk, sorted.
     pub existing: Vec<i64>,
+    /// The first and last frame to run, inclusive.
     pub range: (i64, i64),
 }
 
@@ -142,11 +145,15 @@ impl InputFrames {
 /// rasterized on the skin's voxels; written as a fog volume when `density_out`.
 #[derive(Clone)]
 pub struct ParticleInput {
+    /// The particles' radius, world units: half their rest spacing.
     pub radius: f32,
+    /// Use `radius` for every particle even where the file gives radii of their own.
     pub ignore_radii: bool,
     /// Half the kernel's support, in particle radii.
     pub smoothing_length: f32,
+    /// The density's level (in the rest density's units) its surface lies at.
     pub iso: f32,
+    /// Where each frame's density is written as a fog volume (OpenVDB only).
     pub density_out: Option<FramePattern>,
     /// The skin's voxel size, on whose nodes the density is rasterized.
     pub dx: f32,
@@ -220,7 +227,9 @@ impl AttributeSource {
 /// One particle frame read: its density (the skin's target) and its particles, kept to
 /// match the next frame's ([`crate::particles::motion`]).
 pub struct ParticleFrame {
+    /// The frame's density, rasterized on the skin's voxels: its target.
     pub density: DensityGrid,
+    /// The particles read, those out of reach left out.
     pub particles: Particles,
     /// The density's velocities are each particle's motion since `before`, so the
     /// density is the frame's flow map ([`crate::flow::FlowMap`]).

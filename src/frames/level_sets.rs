@@ -25,6 +25,7 @@ pub enum TargetUnits {
 
 /// A target as [`read_target_in`] reads it.
 pub struct TargetRead {
+    /// The frame's target, as the skin reads it.
     pub target: Box<dyn Target>,
     /// The grid's voxel size.
     pub dx: f32,

@@ -43,7 +43,9 @@ pub enum Report {
 /// characteristic and components (they cost a pass over the mesh; 0 otherwise).
 #[derive(Clone)]
 pub struct Progress {
+    /// Told as the run starts, as each frame is written, and as it ends.
     pub each: Arc<dyn Fn(&Report) + Send + Sync>,
+    /// Count each frame's Euler characteristic and components.
     pub topology: bool,
 }
 
@@ -91,9 +93,14 @@ pub struct OutputSpec {
 /// A frame's surface as the outputs write it: the skin's mesh, the values at its
 /// vertices, the frame's measures.
 pub struct Surface<'a> {
+    /// The frame number.
     pub frame: i64,
+    /// The settled skin's mesh (world units, outward).
     pub mesh: &'a crate::mesh::Mesh,
+    /// What the mesh's vertices hold beside their normals: the surface's velocity, the
+    /// particles' attributes.
     pub values: crate::io::mesh::VertexValues<'a>,
+    /// The frame's measures (sub-steps, band, area, volume, topology when asked).
     pub stats: &'a StepStats,
     /// The settled skin, as its VDB holds it.
     pub level_set: &'a GridData,
@@ -105,6 +112,7 @@ pub struct Surface<'a> {
 /// Who is told of each frame's [`Surface`].
 #[derive(Clone)]
 pub struct SurfaceSink {
+    /// Called with each frame's surface, from the frame loop's thread.
     pub each: Arc<dyn Fn(&Surface) + Send + Sync>,
     /// Also the surface's velocity at the skin's voxels, as `--out` writes it.
     pub voxel_velocities: bool,
@@ -120,8 +128,11 @@ impl std::fmt::Debug for SurfaceSink {
 /// writes only some of them (a farm chunk; the stage lists them all).
 #[derive(Debug, Clone)]
 pub struct UsdSpec {
+    /// The stage file written (`.usda` or `.usd`, as text).
     pub stage: PathBuf,
+    /// The stage's `metersPerUnit`: how long a world unit of the input is.
     pub meters_per_unit: f64,
+    /// The whole shot's first and last frames, when this run writes only some.
     pub shot: Option<(i64, i64)>,
 }
 

@@ -19,9 +19,13 @@ use crate::target::DensityGrid;
 
 /// What a particle run needs besides its outputs.
 pub struct ParticleRun<'a> {
+    /// The particle files and the frames to run.
     pub input: &'a InputFrames,
+    /// How each frame's particles become its target.
     pub particles: &'a ParticleInput,
+    /// The skin's parameters.
     pub params: SkinParams,
+    /// Frames per second: a frame advances the skin 1/fps seconds.
     pub fps: f64,
     /// Which frames' velocities carry the liquid when the particles cannot be matched.
     pub timing: Timing,

@@ -27,12 +27,15 @@ use crate::volume::{GridData, VectorGrid};
 /// One frame's surface, owned: what the outputs were handed.
 #[derive(Debug, Clone)]
 pub struct FrameSurface {
+    /// The frame number.
     pub frame: i64,
+    /// The settled skin's mesh (world units, outward).
     pub mesh: Mesh,
     /// The surface's velocity at each vertex (world units per second), when asked for.
     pub velocities: Option<Vec<Vec3>>,
     /// The particles' attributes at each vertex.
     pub attributes: Vec<Attribute>,
+    /// The frame's measures.
     pub stats: StepStats,
     /// The settled skin, as its VDB holds it.
     pub level_set: GridData,
@@ -44,8 +47,11 @@ pub struct FrameSurface {
 /// How a stream is set up: what a `particles` run is given besides its files.
 #[derive(Clone)]
 pub struct StreamSpec {
+    /// How the particles handed over become targets.
     pub particles: ParticleInput,
+    /// The skin's parameters.
     pub params: SkinParams,
+    /// Frames per second: a frame advances the skin 1/fps seconds.
     pub fps: f64,
     /// Hold the skin to the volume the particles stand for (the command's default).
     pub hold_volume: bool,
@@ -289,6 +295,7 @@ pub struct LevelSetFrame {
 pub struct LevelSetSpec {
     /// The voxel size, when not given, is the first target's.
     pub physics: Physics,
+    /// Frames per second: a frame advances the skin 1/fps seconds.
     pub fps: f64,
     /// Which frames' velocities carry the skin over an interval.
     pub timing: Timing,

@@ -52,9 +52,11 @@ pub enum VelocitySource {
 /// of its own, in world units per second after `scale`.
 #[derive(Debug, Clone)]
 pub struct VelocityInput {
+    /// Where the velocity grid is found.
     pub source: VelocitySource,
     /// Velocity files, when not in the target's.
     pub files: Option<FramePattern>,
+    /// What turns its values into world units per second.
     pub scale: f32,
 }
 

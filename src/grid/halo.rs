@@ -8,6 +8,7 @@ pub(crate) const HALO_DIM: usize = 10;
 
 /// Values of a block and its one-node border, as f32, x-major like the block.
 pub(crate) struct Halo {
+    /// The block's values and its neighbours' one node around ([`Halo::index`]).
     pub values: [f32; HALO_DIM * HALO_DIM * HALO_DIM],
 }
 
@@ -113,6 +114,7 @@ pub const WIDE_DIM: usize = 12;
 /// A block's values with a two-node border, for stencils four nodes wide (the advection's
 /// cubic interpolation).
 pub struct WideHalo {
+    /// The block's values and its neighbours' two nodes around.
     pub values: [f32; WIDE_DIM * WIDE_DIM * WIDE_DIM],
 }
 

@@ -5,7 +5,9 @@ use glam::Vec3;
 /// An axis-aligned box in world space.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Aabb {
+    /// The lowest corner.
     pub min: Vec3,
+    /// The highest corner.
     pub max: Vec3,
 }
 
@@ -28,7 +30,9 @@ impl Aabb {
 /// Index space → world space.
 #[derive(Debug, Clone, Copy)]
 pub struct IndexToWorld {
+    /// Where node (0, 0, 0) lies, world units.
     pub origin: Vec3,
+    /// The voxel size, world units.
     pub dx: f32,
 }
 

@@ -55,7 +55,9 @@ pub(crate) type NoSweep = fn(&Halo, i32, i32) -> [f32; 8];
 /// gives the new values of the row of local nodes (x, y, 0..8) from the values before the
 /// pass (Jacobi); only the active ones are kept.
 pub(crate) struct Sweep<'a, F> {
+    /// The update of a row of nodes.
     pub update: F,
+    /// Reused for the values swept.
     pub scratch: &'a mut Vec<[f32; BLOCK_NODES]>,
 }
 

@@ -30,7 +30,9 @@ pub enum BgeoError {
 /// The points of a BGEO file and their attributes.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct BgeoPoints {
+    /// The points' `P`.
     pub positions: Vec<[f32; 3]>,
+    /// The other point attributes (`v`, `id`, `pscale`, ...).
     pub attributes: Vec<PointArray>,
 }
 

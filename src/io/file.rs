@@ -7,8 +7,10 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 #[error("{}: {source}", path.display())]
 pub struct WriteError {
+    /// The file being written.
     pub path: PathBuf,
     #[source]
+    /// Why it failed.
     pub source: std::io::Error,
 }
 

@@ -9,8 +9,10 @@ use crate::render::Render;
 #[derive(Debug, thiserror::Error)]
 #[error("{}: {source}", path.display())]
 pub struct RenderError {
+    /// The image being written.
     pub path: std::path::PathBuf,
     #[source]
+    /// Why it failed.
     pub source: ImageFault,
 }
 

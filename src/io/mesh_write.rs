@@ -12,8 +12,10 @@ use super::file::{write_atomically, EagerWriteback};
 #[derive(Debug, thiserror::Error)]
 #[error("{}: {source}", path.display())]
 pub struct MeshError {
+    /// The mesh file being written.
     pub path: std::path::PathBuf,
     #[source]
+    /// Why it failed.
     pub source: MeshFault,
 }
 

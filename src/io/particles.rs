@@ -18,8 +18,10 @@ use crate::particles::{Attribute, Particles};
 #[derive(Debug, thiserror::Error)]
 #[error("{}: {}", path.display(), super::file::error_chain(source))]
 pub struct ParticleError {
+    /// The particle file read.
     pub path: PathBuf,
     #[source]
+    /// What is wrong with it.
     pub source: ParticleFault,
 }
 
@@ -90,7 +92,9 @@ pub enum ParticleFault {
 /// line in [`FORMATS`].
 #[derive(Debug, Clone, Copy)]
 pub struct Format {
+    /// How messages name it.
     pub name: &'static str,
+    /// The ends of file names that are this format, lower case, without the dot.
     pub extensions: &'static [&'static str],
     read: fn(&[u8]) -> Result<Particles, ParticleFault>,
 }

@@ -4,8 +4,11 @@
 /// and values row by row (integers as floats, exact up to 2⁵³).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PointArray {
+    /// The array's name in the file.
     pub name: String,
+    /// Values per point (3 for a vector).
     pub components: usize,
+    /// `components` values per point, point by point.
     pub values: Vec<f64>,
 }
 

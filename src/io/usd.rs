@@ -39,8 +39,11 @@ pub struct Shot {
     stage: PathBuf,
     /// Every frame of the shot (a farm chunk's stage lists them all).
     pub frames: (i64, i64),
+    /// The stage's time codes per second.
     pub fps: f64,
+    /// The stage's up axis.
     pub up: Up,
+    /// The stage's `metersPerUnit`.
     pub meters_per_unit: f64,
 }
 
@@ -48,6 +51,7 @@ pub struct Shot {
 /// declares it once.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Carried {
+    /// Each frame's vertex velocities (for motion blur).
     pub velocities: bool,
     /// Each attribute's primvar name and USD type.
     pub primvars: Vec<(String, &'static str)>,

@@ -307,11 +307,17 @@ pub fn frame_metadata(frame: i64) -> FileMetadata {
 
 /// A vector grid to write (fixtures, samples): `values[i]` at voxel `coords[i]`.
 pub struct VectorWrite<'a> {
+    /// The grid's name.
     pub name: &'a str,
+    /// Whether its components sit on the voxels' faces (MAC).
     pub staggered: bool,
+    /// World units.
     pub voxel_size: f64,
+    /// The active voxels, index coordinates.
     pub coords: &'a [[i32; 3]],
+    /// The vector at each of `coords`.
     pub values: &'a [[f32; 3]],
+    /// Store values as 16-bit halves, as Houdini may write them.
     pub half_float: bool,
 }
 

@@ -25,6 +25,7 @@ pub enum VtkError {
 pub struct VtkPoints {
     /// x y z per point, as read (float or double).
     pub positions: Vec<[f64; 3]>,
+    /// The point data arrays.
     pub arrays: Vec<PointArray>,
 }
 

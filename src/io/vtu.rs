@@ -45,7 +45,9 @@ pub enum VtuError {
 /// every piece has.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct VtuPoints {
+    /// The points.
     pub positions: Vec<[f64; 3]>,
+    /// The point data arrays.
     pub arrays: Vec<PointArray>,
 }
 

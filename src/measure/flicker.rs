@@ -15,9 +15,13 @@ use crate::target::{iso_for_radius, Density, Target};
 /// Flicker and error of both surfaces, in voxels, over the settled frames.
 #[derive(Debug, Clone, Copy)]
 pub struct Flicker {
+    /// The skin's surface: its mean motion from frame to frame.
     pub skin: f64,
+    /// Marching cubes on each frame's density alone: the same.
     pub per_frame: f64,
+    /// The skin's mean distance to the cloud's surface at rest.
     pub skin_error: f64,
+    /// The per-frame surface's, the same.
     pub per_frame_error: f64,
 }
 

@@ -11,6 +11,7 @@ use super::Mesh;
 /// What [`Mesh::check`] found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct MeshCheck {
+    /// Triangles in the mesh.
     pub triangles: usize,
     /// Undirected edges not in exactly two triangles of opposite directions.
     pub open_edges: usize,

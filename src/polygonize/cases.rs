@@ -122,7 +122,9 @@ pub const MAX_TRIANGLES: usize = 10;
 /// The triangles of one sign case, as edge triples, counter-clockwise seen from outside.
 #[derive(Clone, Copy)]
 pub struct Case {
+    /// How many of `triangles` are used.
     pub len: u8,
+    /// Each triangle's three crossed edges.
     pub triangles: [[u8; 3]; MAX_TRIANGLES],
 }
 

@@ -30,6 +30,7 @@ pub struct SpeedParams {
     pub area_gain: f32,
     /// Volume preservation gain γ_V (world units/s).
     pub volume_gain: f32,
+    /// Where the attraction reads its target (§4.3).
     pub attraction: AttractionSample,
 }
 

@@ -37,9 +37,13 @@ pub enum Motion<'a> {
 /// and the voxel. Kept by the frame loop for every output that asks.
 #[derive(Clone, Copy)]
 pub struct SurfaceMotion<'a> {
+    /// The material's motion over the frame.
     pub motion: Motion<'a>,
+    /// The skin a frame before, and how far its distance is trusted (world units).
     pub before: Option<(&'a dyn Target, f32)>,
+    /// The frame's length, seconds.
     pub duration: f32,
+    /// The voxel size, world units.
     pub dx: f32,
 }
 

@@ -13,8 +13,11 @@ use crate::grid::Aabb;
 /// straight trace along v(p) leaves a turning flow's circle by ω²·ahead²·r/2: a sphere
 /// spinning half a turn a second sat 0.046 voxel inside the truth, 0.022 with the midpoint.
 pub struct Backtracked<'a> {
+    /// The surface at the frame's end.
     pub target: &'a dyn Target,
+    /// The material's velocity.
     pub flow: &'a dyn Flow,
+    /// Seconds to the frame's end.
     pub ahead: f32,
 }
 

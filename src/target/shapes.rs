@@ -7,7 +7,9 @@ use glam::Vec3;
 
 #[derive(Debug, Clone, Copy)]
 pub struct Sphere {
+    /// World units.
     pub center: Vec3,
+    /// World units.
     pub radius: f32,
 }
 
@@ -26,6 +28,7 @@ impl Target for Sphere {
 /// A torus around the z axis through `center`.
 #[derive(Debug, Clone, Copy)]
 pub struct Torus {
+    /// World units.
     pub center: Vec3,
     /// Distance from the axis to the centre of the tube.
     pub major: f32,
@@ -50,7 +53,9 @@ impl Target for Torus {
 
 #[derive(Debug, Clone, Copy)]
 pub struct BoxShape {
+    /// World units.
     pub center: Vec3,
+    /// Half its extent along each axis.
     pub half_size: Vec3,
 }
 
@@ -121,7 +126,9 @@ impl Skeleton {
 /// An implicit surface G = Σ kernels = iso around point and segment skeletons.
 #[derive(Debug, Clone)]
 pub struct Blobs {
+    /// The points and segments the kernels surround.
     pub skeletons: Vec<Skeleton>,
+    /// The field's value on the surface.
     pub iso: f32,
 }
 

@@ -51,6 +51,7 @@ impl From<&str> for LayoutError {
 /// What the walk found: enough to describe the file, nothing OpenVDB needs.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Layout {
+    /// The file format version.
     pub version: u32,
     /// Whether grid descriptors carry offsets (then `grids` lists them all).
     pub has_offsets: bool,
