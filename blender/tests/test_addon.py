@@ -55,6 +55,10 @@ ps.normal_factor = 0.0
 emitter.show_instancer_for_render = False
 
 s = scene.activeskin
+# The panel starts at the library's defaults, read as the add-on registered.
+library = activeskin_blender._activeskin()
+assert (s.alpha, s.smooth) == (library.DEFAULT_ALPHA, library.DEFAULT_PARTICLE_SMOOTHING), (
+    s.alpha, s.smooth)
 s.source = "PARTICLES"
 s.emitter = emitter
 s.radius = 0.035
