@@ -60,6 +60,47 @@ pub(crate) fn read_ply(bytes: &[u8]) -> Result<Particles, PlyError> {
 }
 
 fn parse_ply(bytes: &[u8]) -> Result<Particles, PlyError> {
+    let (format, elements, body) = parse_header(bytes)?;
+    let (index, (_, count, properties)) = elements
+        .iter()
+        .enumerate()
+        .find(|(_, e)| e.0 == "vertex")
+        .ok_or("PLY file has no vertex element")?;
+    if elements[..index].iter().any(|e| e.1 > 0) {
+        return Err("PLY elements before the vertices are not supported".into());
+    }
+    if properties.iter().any(|p| p.1 == "list") {
+        return Err("vertex element has a list property".into());
+    }
+    let columns = Columns::of(properties)?;
+    let data = &bytes[body.min(bytes.len())..];
+    let rows = match format {
+        Encoding::Ascii => read_ascii(data, *count, properties.len(), &columns)?,
+        Encoding::Little | Encoding::Big => {
+            read_binary(data, *count, properties, &columns, format == Encoding::Big)?
+        }
+    };
+    Ok(Particles {
+        positions: rows.positions,
+        radii: rows.radii,
+        velocities: rows.velocities,
+        ids: rows.ids,
+        attributes: columns
+            .extra
+            .iter()
+            .zip(rows.extras)
+            .map(|(&k, values)| Attribute {
+                name: properties[k].0.clone(),
+                components: 1,
+                values,
+            })
+            .collect(),
+    })
+}
+
+/// The header of a PLY file: its encoding, its elements in order, and where its body
+/// starts (past the end of the `end_header` line).
+fn parse_header(bytes: &[u8]) -> Result<(Encoding, Vec<Element>, usize), PlyError> {
     const END: &[u8] = b"end_header";
     let end = bytes
         .windows(END.len())
@@ -118,154 +159,170 @@ fn parse_ply(bytes: &[u8]) -> Result<Particles, PlyError> {
         }
     }
     let format = format.ok_or("PLY header has no format line")?;
-    let (index, (_, count, properties)) = elements
-        .iter()
-        .enumerate()
-        .find(|(_, e)| e.0 == "vertex")
-        .ok_or("PLY file has no vertex element")?;
-    if elements[..index].iter().any(|e| e.1 > 0) {
-        return Err("PLY elements before the vertices are not supported".into());
+    Ok((format, elements, body))
+}
+
+/// Where the vertex element holds what a particle has, by the names solvers give them.
+struct Columns {
+    x: usize,
+    y: usize,
+    z: usize,
+    radius: Option<usize>,
+    id: Option<usize>,
+    velocity: Option<(usize, usize, usize)>,
+    /// Every other property: an attribute under its own name.
+    extra: Vec<usize>,
+}
+
+impl Columns {
+    fn of(properties: &[(String, String)]) -> Result<Self, PlyError> {
+        let column = |names: &[&str]| {
+            properties
+                .iter()
+                .position(|p| names.contains(&p.0.as_str()))
+        };
+        let (x, y, z) = match (column(&["x"]), column(&["y"]), column(&["z"])) {
+            (Some(x), Some(y), Some(z)) => (x, y, z),
+            _ => return Err("vertex element lacks x, y or z".into()),
+        };
+        let radius = column(&["radius", "pscale", "r"]);
+        let id = column(&["id", "pid"]);
+        let velocity = match (
+            column(&["vx", "velocity_x"]),
+            column(&["vy", "velocity_y"]),
+            column(&["vz", "velocity_z"]),
+        ) {
+            (Some(a), Some(b), Some(c)) => Some((a, b, c)),
+            _ => None,
+        };
+        let known: Vec<usize> = [Some(x), Some(y), Some(z), radius, id]
+            .into_iter()
+            .flatten()
+            .chain(velocity.into_iter().flat_map(|(a, b, c)| [a, b, c]))
+            .collect();
+        let extra = (0..properties.len())
+            .filter(|k| !known.contains(k))
+            .collect();
+        Ok(Columns {
+            x,
+            y,
+            z,
+            radius,
+            id,
+            velocity,
+            extra,
+        })
     }
-    if properties.iter().any(|p| p.1 == "list") {
-        return Err("vertex element has a list property".into());
-    }
-    let column = |names: &[&str]| {
-        properties
-            .iter()
-            .position(|p| names.contains(&p.0.as_str()))
-    };
-    let (x, y, z) = match (column(&["x"]), column(&["y"]), column(&["z"])) {
-        (Some(x), Some(y), Some(z)) => (x, y, z),
-        _ => return Err("vertex element lacks x, y or z".into()),
-    };
-    let radius = column(&["radius", "pscale", "r"]);
-    let id = column(&["id", "pid"]);
-    let velocity = match (
-        column(&["vx", "velocity_x"]),
-        column(&["vy", "velocity_y"]),
-        column(&["vz", "velocity_z"]),
-    ) {
-        (Some(a), Some(b), Some(c)) => Some((a, b, c)),
-        _ => None,
-    };
-    // Every other property: an attribute under its own name.
-    let known: Vec<usize> = [Some(x), Some(y), Some(z), radius, id]
-        .into_iter()
-        .flatten()
-        .chain(velocity.into_iter().flat_map(|(a, b, c)| [a, b, c]))
-        .collect();
-    let extra: Vec<usize> = (0..properties.len())
-        .filter(|k| !known.contains(k))
-        .collect();
-    let data = &bytes[body.min(bytes.len())..];
+}
+
+/// The vertices' values, column by column.
+struct Rows {
+    positions: Vec<Vec3>,
+    radii: Option<Vec<f32>>,
+    velocities: Option<Vec<Vec3>>,
+    ids: Option<Vec<i64>>,
+    extras: Vec<Vec<f32>>,
+}
+
+/// `count` ASCII rows of `width` numbers from `data`.
+fn read_ascii(data: &[u8], count: usize, width: usize, c: &Columns) -> Result<Rows, PlyError> {
     // The header's count is only a claim (found by cargo fuzz: 4.6 trillion vertices asked
     // for a 200-byte file): reserve no more rows than the bytes could hold.
-    let capacity = (*count).min(data.len());
-    let mut positions = Vec::with_capacity(capacity);
-    let mut radii = radius.map(|_| Vec::with_capacity(capacity));
-    let mut velocities = velocity.map(|_| Vec::with_capacity(capacity));
-    let mut ids = id.map(|_| Vec::with_capacity(capacity));
-    let mut extras: Vec<Vec<f32>> = extra.iter().map(|_| Vec::with_capacity(capacity)).collect();
-    match format {
-        Encoding::Ascii => {
-            let mut push = |row: &[f64]| {
-                positions.push(Vec3::new(row[x] as f32, row[y] as f32, row[z] as f32));
-                if let (Some(r), Some(radii)) = (radius, radii.as_mut()) {
-                    radii.push(row[r] as f32);
-                }
-                if let (Some((a, b, c)), Some(v)) = (velocity, velocities.as_mut()) {
-                    v.push(Vec3::new(row[a] as f32, row[b] as f32, row[c] as f32));
-                }
-                if let (Some(k), Some(ids)) = (id, ids.as_mut()) {
-                    ids.push(row[k] as i64);
-                }
-                for (&k, values) in extra.iter().zip(extras.iter_mut()) {
-                    values.push(row[k] as f32);
-                }
-            };
-            let text = std::str::from_utf8(data).map_err(|_| "PLY body is not text")?;
-            let mut rows = text.lines().filter(|l| !l.trim().is_empty());
-            for i in 0..*count {
-                let line = rows
-                    .next()
-                    .ok_or(format!("{count} vertices announced, {i} found"))?;
-                let row: Result<Vec<f64>, _> = line.split_whitespace().map(str::parse).collect();
-                let row = row.map_err(|_| format!("vertex {i}: not numbers"))?;
-                if row.len() < properties.len() {
-                    return Err(format!(
-                        "vertex {i}: {} values, {} expected",
-                        row.len(),
-                        properties.len()
-                    )
-                    .into());
-                }
-                push(&row);
-            }
+    let capacity = count.min(data.len());
+    let mut rows = Rows {
+        positions: Vec::with_capacity(capacity),
+        radii: c.radius.map(|_| Vec::with_capacity(capacity)),
+        velocities: c.velocity.map(|_| Vec::with_capacity(capacity)),
+        ids: c.id.map(|_| Vec::with_capacity(capacity)),
+        extras: c
+            .extra
+            .iter()
+            .map(|_| Vec::with_capacity(capacity))
+            .collect(),
+    };
+    let text = std::str::from_utf8(data).map_err(|_| "PLY body is not text")?;
+    let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+    for i in 0..count {
+        let line = lines
+            .next()
+            .ok_or(format!("{count} vertices announced, {i} found"))?;
+        let row: Result<Vec<f64>, _> = line.split_whitespace().map(str::parse).collect();
+        let row = row.map_err(|_| format!("vertex {i}: not numbers"))?;
+        if row.len() < width {
+            return Err(format!("vertex {i}: {} values, {width} expected", row.len()).into());
         }
-        Encoding::Little | Encoding::Big => {
-            // Every vertex property's type is known (checked in the header; no lists).
-            let kinds: Vec<Scalar> = properties
-                .iter()
-                .map(|p| scalar_type(&p.1).expect("checked in the header"))
-                .collect();
-            let sizes: Vec<usize> = kinds.iter().map(|k| k.size()).collect();
-            let stride: usize = sizes.iter().sum();
-            if stride
-                .checked_mul(*count)
-                .map_or(true, |needed| data.len() < needed)
-            {
-                return Err(format!(
-                    "{count} vertices announced, {} bytes hold {}",
-                    data.len(),
-                    data.len() / stride.max(1)
-                )
-                .into());
-            }
-            if *count > 0 && stride == 0 {
-                return Err("vertex element has no properties".into());
-            }
-            // Fixed-size records: each column read on all threads, at its offset.
-            let big = format == Encoding::Big;
-            let offsets: Vec<usize> = sizes
-                .iter()
-                .scan(0, |at, &s| {
-                    *at += s;
-                    Some(*at - s)
-                })
-                .collect();
-            let body = &data[..stride * *count];
-            let rows = || body.par_chunks_exact(stride.max(1));
-            let field = |record: &[u8], k: usize| kinds[k].read(&record[offsets[k]..], big);
-            positions = rows()
-                .map(|r| Vec3::new(field(r, x) as f32, field(r, y) as f32, field(r, z) as f32))
-                .collect();
-            radii = radius.map(|k| rows().map(|r| field(r, k) as f32).collect());
-            velocities = velocity.map(|(a, b, c)| {
-                rows()
-                    .map(|r| Vec3::new(field(r, a) as f32, field(r, b) as f32, field(r, c) as f32))
-                    .collect()
-            });
-            ids = id.map(|k| rows().map(|r| field(r, k) as i64).collect());
-            extras = extra
-                .iter()
-                .map(|&k| rows().map(|r| field(r, k) as f32).collect())
-                .collect();
+        rows.positions
+            .push(Vec3::new(row[c.x] as f32, row[c.y] as f32, row[c.z] as f32));
+        if let (Some(r), Some(radii)) = (c.radius, rows.radii.as_mut()) {
+            radii.push(row[r] as f32);
+        }
+        if let (Some((a, b, d)), Some(v)) = (c.velocity, rows.velocities.as_mut()) {
+            v.push(Vec3::new(row[a] as f32, row[b] as f32, row[d] as f32));
+        }
+        if let (Some(k), Some(ids)) = (c.id, rows.ids.as_mut()) {
+            ids.push(row[k] as i64);
+        }
+        for (&k, values) in c.extra.iter().zip(rows.extras.iter_mut()) {
+            values.push(row[k] as f32);
         }
     }
-    Ok(Particles {
-        positions,
-        radii,
-        velocities,
-        ids,
-        attributes: extra
-            .iter()
-            .zip(extras)
-            .map(|(&k, values)| Attribute {
-                name: properties[k].0.clone(),
-                components: 1,
-                values,
-            })
-            .collect(),
+    Ok(rows)
+}
+
+/// `count` binary rows of `properties` from `data` (big-endian when `big`): fixed-size
+/// records, each column read on all threads at its offset.
+fn read_binary(
+    data: &[u8],
+    count: usize,
+    properties: &[(String, String)],
+    c: &Columns,
+    big: bool,
+) -> Result<Rows, PlyError> {
+    // Every vertex property's type is known (checked in the header; no lists).
+    let kinds: Vec<Scalar> = properties
+        .iter()
+        .map(|p| scalar_type(&p.1).expect("checked in the header"))
+        .collect();
+    let sizes: Vec<usize> = kinds.iter().map(|k| k.size()).collect();
+    let stride: usize = sizes.iter().sum();
+    if stride
+        .checked_mul(count)
+        .map_or(true, |needed| data.len() < needed)
+    {
+        return Err(format!(
+            "{count} vertices announced, {} bytes hold {}",
+            data.len(),
+            data.len() / stride.max(1)
+        )
+        .into());
+    }
+    if count > 0 && stride == 0 {
+        return Err("vertex element has no properties".into());
+    }
+    let offsets: Vec<usize> = sizes
+        .iter()
+        .scan(0, |at, &s| {
+            *at += s;
+            Some(*at - s)
+        })
+        .collect();
+    let body = &data[..stride * count];
+    let records = || body.par_chunks_exact(stride.max(1));
+    let field = |record: &[u8], k: usize| kinds[k].read(&record[offsets[k]..], big);
+    let column = |k: usize| records().map(|r| field(r, k) as f32).collect();
+    let vector = |(a, b, d): (usize, usize, usize)| {
+        records()
+            .map(|r| Vec3::new(field(r, a) as f32, field(r, b) as f32, field(r, d) as f32))
+            .collect()
+    };
+    Ok(Rows {
+        positions: vector((c.x, c.y, c.z)),
+        radii: c.radius.map(column),
+        velocities: c.velocity.map(vector),
+        ids: c
+            .id
+            .map(|k| records().map(|r| field(r, k) as i64).collect()),
+        extras: c.extra.iter().map(|&k| column(k)).collect(),
     })
 }
 

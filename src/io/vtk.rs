@@ -89,24 +89,9 @@ pub fn parse(bytes: &[u8]) -> Result<VtkPoints, VtkError> {
                 out.positions = values.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
                 have_points = true;
             }
-            // Cells: read past (version 5.1 puts OFFSETS and CONNECTIVITY arrays after).
             "CELLS" | "VERTICES" | "LINES" | "POLYGONS" | "TRIANGLE_STRIPS" => {
                 let size = count(2, &keyword)?;
-                if r.peek_keyword()?.as_deref() == Some("OFFSETS") {
-                    for part in ["OFFSETS", "CONNECTIVITY"] {
-                        let header = r.next_keyword_line()?.ok_or_else(|| r.truncated(part))?;
-                        let kind = value_type(header.split_whitespace().nth(1), &r)?;
-                        // Version 5.1 counts the offsets (cells + 1), then the connectivity.
-                        let n = if part == "OFFSETS" {
-                            count(1, &keyword)?
-                        } else {
-                            size
-                        };
-                        r.values(n, kind, part)?;
-                    }
-                } else {
-                    r.values(size, Scalar::I32, &keyword)?;
-                }
+                skip_cells(&mut r, &keyword, size, count(1, &keyword))?;
             }
             "CELL_TYPES" => {
                 let n = count(1, "CELL_TYPES")?;
@@ -114,68 +99,16 @@ pub fn parse(bytes: &[u8]) -> Result<VtkPoints, VtkError> {
             }
             "POINT_DATA" | "CELL_DATA" => in_point_data = keyword == "POINT_DATA",
             "FIELD" => {
-                let arrays = count(2, "FIELD")?;
-                for _ in 0..arrays {
-                    let header = r.next_keyword_line()?.ok_or_else(|| r.truncated("FIELD"))?;
-                    let w: Vec<&str> = header.split_whitespace().collect();
-                    let number = |i: usize| -> Result<usize, VtkError> {
-                        w.get(i).and_then(|s| s.parse().ok()).ok_or_else(|| {
-                            r.syntax(format!("FIELD array: expected 'name components tuples type', got '{header}'"))
-                        })
-                    };
-                    let (components, tuples) = (number(1)?, number(2)?);
-                    let kind = value_type(w.get(3).copied(), &r)?;
-                    let n = components.checked_mul(tuples).ok_or_else(|| r.too_many())?;
-                    let values = r.values(n, kind, w[0])?;
-                    if in_point_data {
-                        out.arrays.push(PointArray {
-                            name: w[0].to_string(),
-                            components,
-                            values,
-                        });
-                    }
+                let arrays = field_arrays(&mut r, count(2, "FIELD")?)?;
+                if in_point_data {
+                    out.arrays.extend(arrays);
                 }
             }
             "SCALARS" | "VECTORS" | "NORMALS" | "COLOR_SCALARS" | "TENSORS" => {
-                let name = words
-                    .get(1)
-                    .ok_or_else(|| r.syntax(format!("{keyword} without a name")))?
-                    .to_string();
                 let points = out.positions.len();
-                let (components, kind) = match keyword.as_str() {
-                    "SCALARS" => {
-                        let kind = value_type(words.get(2).copied(), &r)?;
-                        let components = match words.get(3) {
-                            Some(c) => {
-                                c.parse().ok().filter(|&n: &usize| n > 0).ok_or_else(|| {
-                                    r.syntax(format!("SCALARS {name}: bad component count"))
-                                })?
-                            }
-                            None => 1,
-                        };
-                        if r.peek_keyword()?.as_deref() == Some("LOOKUP_TABLE") {
-                            r.next_keyword_line()?;
-                        }
-                        (components, kind)
-                    }
-                    "COLOR_SCALARS" => (
-                        count(2, "COLOR_SCALARS")?,
-                        if r.binary { Scalar::U8 } else { Scalar::F32 },
-                    ),
-                    "TENSORS" => (9, value_type(words.get(2).copied(), &r)?),
-                    _ => (3, value_type(words.get(2).copied(), &r)?),
-                };
-                let values = r.values(
-                    points.checked_mul(components).ok_or_else(|| r.too_many())?,
-                    kind,
-                    &name,
-                )?;
+                let array = attribute(&mut r, &words, points, count(2, "COLOR_SCALARS"))?;
                 if in_point_data {
-                    out.arrays.push(PointArray {
-                        name,
-                        components,
-                        values,
-                    });
+                    out.arrays.push(array);
                 }
             }
             "LOOKUP_TABLE" => {
@@ -198,6 +131,103 @@ pub fn parse(bytes: &[u8]) -> Result<VtkPoints, VtkError> {
         return Err(VtkError::NoPoints);
     }
     Ok(out)
+}
+
+/// Reads past a cell section (`keyword` with `size` values; version 5.1 puts OFFSETS and
+/// CONNECTIVITY arrays after it, counting `cells` + 1 offsets).
+fn skip_cells(
+    r: &mut Reader,
+    keyword: &str,
+    size: usize,
+    cells: Result<usize, VtkError>,
+) -> Result<(), VtkError> {
+    if r.peek_keyword()?.as_deref() != Some("OFFSETS") {
+        r.values(size, Scalar::I32, keyword)?;
+        return Ok(());
+    }
+    let mut cells = Some(cells);
+    for part in ["OFFSETS", "CONNECTIVITY"] {
+        let header = r.next_keyword_line()?.ok_or_else(|| r.truncated(part))?;
+        let kind = value_type(header.split_whitespace().nth(1), r)?;
+        let n = match cells.take() {
+            Some(cells) => cells?,
+            None => size,
+        };
+        r.values(n, kind, part)?;
+    }
+    Ok(())
+}
+
+/// The `arrays` arrays of a FIELD section, each `name components tuples type` then its
+/// values.
+fn field_arrays(r: &mut Reader, arrays: usize) -> Result<Vec<PointArray>, VtkError> {
+    let mut out = Vec::new();
+    for _ in 0..arrays {
+        let header = r.next_keyword_line()?.ok_or_else(|| r.truncated("FIELD"))?;
+        let w: Vec<&str> = header.split_whitespace().collect();
+        let number = |i: usize| -> Result<usize, VtkError> {
+            w.get(i).and_then(|s| s.parse().ok()).ok_or_else(|| {
+                r.syntax(format!(
+                    "FIELD array: expected 'name components tuples type', got '{header}'"
+                ))
+            })
+        };
+        let (components, tuples) = (number(1)?, number(2)?);
+        let kind = value_type(w.get(3).copied(), r)?;
+        let n = components.checked_mul(tuples).ok_or_else(|| r.too_many())?;
+        let values = r.values(n, kind, w[0])?;
+        out.push(PointArray {
+            name: w[0].to_string(),
+            components,
+            values,
+        });
+    }
+    Ok(out)
+}
+
+/// A dataset attribute (SCALARS, VECTORS, NORMALS, COLOR_SCALARS, TENSORS) whose line
+/// is `words`, one tuple for each of `points`; `colors` is COLOR_SCALARS's count.
+fn attribute(
+    r: &mut Reader,
+    words: &[&str],
+    points: usize,
+    colors: Result<usize, VtkError>,
+) -> Result<PointArray, VtkError> {
+    let keyword = words[0].to_ascii_uppercase();
+    let name = words
+        .get(1)
+        .ok_or_else(|| r.syntax(format!("{keyword} without a name")))?
+        .to_string();
+    let (components, kind) = match keyword.as_str() {
+        "SCALARS" => {
+            let kind = value_type(words.get(2).copied(), r)?;
+            let components = match words.get(3) {
+                Some(c) => c
+                    .parse()
+                    .ok()
+                    .filter(|&n: &usize| n > 0)
+                    .ok_or_else(|| r.syntax(format!("SCALARS {name}: bad component count")))?,
+                None => 1,
+            };
+            if r.peek_keyword()?.as_deref() == Some("LOOKUP_TABLE") {
+                r.next_keyword_line()?;
+            }
+            (components, kind)
+        }
+        "COLOR_SCALARS" => (colors?, if r.binary { Scalar::U8 } else { Scalar::F32 }),
+        "TENSORS" => (9, value_type(words.get(2).copied(), r)?),
+        _ => (3, value_type(words.get(2).copied(), r)?),
+    };
+    let values = r.values(
+        points.checked_mul(components).ok_or_else(|| r.too_many())?,
+        kind,
+        &name,
+    )?;
+    Ok(PointArray {
+        name,
+        components,
+        values,
+    })
 }
 
 /// A data type, by legacy VTK's name for it.

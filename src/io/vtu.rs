@@ -144,6 +144,17 @@ pub fn piece_sources(bytes: &[u8]) -> Result<Vec<String>, VtuError> {
 pub fn parse(bytes: &[u8], limit: u64) -> Result<VtuPoints, VtuError> {
     // Raw appended data is not XML: the markup ends where it starts.
     let (markup, appended) = split_appended(bytes);
+    let (layout, pieces) = read_markup(markup, appended.is_some(), limit)?;
+    join_pieces(&pieces, &layout.ok_or(VtuError::NotVtu)?, appended)
+}
+
+/// The markup's layout (`<VTKFile>`'s attributes) and its pieces' arrays, as tags; with
+/// `appended` data after it, the markup ends where that starts.
+fn read_markup(
+    markup: &[u8],
+    appended: bool,
+    limit: u64,
+) -> Result<(Option<Layout>, Vec<Piece>), VtuError> {
     let mut reader = quick_xml::Reader::from_reader(markup);
     let mut layout = None;
     let mut pieces: Vec<Piece> = Vec::new();
@@ -156,7 +167,7 @@ pub fn parse(bytes: &[u8], limit: u64) -> Result<VtuPoints, VtuError> {
         let event = match reader.read_event() {
             Ok(event) => event,
             // The markup was cut where the appended data starts.
-            Err(_) if appended.is_some() && layout.is_some() => break,
+            Err(_) if appended && layout.is_some() => break,
             Err(e) => return Err(VtuError::Xml(e)),
         };
         let (start, empty) = match &event {
@@ -221,7 +232,7 @@ pub fn parse(bytes: &[u8], limit: u64) -> Result<VtuPoints, VtuError> {
             }
             Event::Eof => {
                 // Appended data cuts the markup inside <VTKFile>: that is its end.
-                if appended.is_none() {
+                if !appended {
                     if let Some(inner) = open.pop() {
                         return Err(VtuError::Truncated(inner));
                     }
@@ -231,10 +242,18 @@ pub fn parse(bytes: &[u8], limit: u64) -> Result<VtuPoints, VtuError> {
             _ => {}
         }
     }
-    let layout = layout.ok_or(VtuError::NotVtu)?;
+    Ok((layout, pieces))
+}
+
+/// The pieces' points one after another, with the arrays every piece has, decoded.
+fn join_pieces(
+    pieces: &[Piece],
+    layout: &Layout,
+    appended: Option<(&[u8], bool)>,
+) -> Result<VtuPoints, VtuError> {
     let mut out = VtuPoints::default();
     let mut arrays: Option<Vec<PointArray>> = None;
-    for piece in &pieces {
+    for piece in pieces {
         let tag = piece.positions.as_ref().ok_or(VtuError::NoPoints)?;
         if tag.components != 3 {
             return Err(VtuError::Array {
@@ -242,7 +261,7 @@ pub fn parse(bytes: &[u8], limit: u64) -> Result<VtuPoints, VtuError> {
                 message: format!("{} components, not 3", tag.components),
             });
         }
-        let values = decode(tag, piece.points, &layout, appended)?;
+        let values = decode(tag, piece.points, layout, appended)?;
         out.positions
             .extend(values.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
         let mut these = Vec::new();
@@ -250,7 +269,7 @@ pub fn parse(bytes: &[u8], limit: u64) -> Result<VtuPoints, VtuError> {
             these.push(PointArray {
                 name: tag.name.clone(),
                 components: tag.components,
-                values: decode(tag, piece.points, &layout, appended)?,
+                values: decode(tag, piece.points, layout, appended)?,
             });
         }
         // Only the arrays every piece has, appended piece after piece.

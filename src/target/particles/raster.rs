@@ -68,75 +68,14 @@ impl DensityGrid {
     /// tiny voxels or huge radii, with few neighbours to share them).
     pub fn rasterize_within(density: &Density, dx: f32, budget: u64) -> Result<Self, u64> {
         assert!(dx > 0.0, "voxel size must be positive");
-        let side = DIM as f32 * dx;
-        let key = |p: Vec3| (p / side).floor().as_ivec3();
-        let mut order: Vec<(IVec3, u32)> = density
-            .particles
-            .par_iter()
-            .enumerate()
-            .map(|(i, &(p, _))| (key(p), i as u32))
-            .collect();
-        order.par_sort_unstable_by_key(|&(c, i)| (c.to_array(), i));
-        let mut list: Vec<(usize, usize)> = Vec::new();
-        let mut start = 0;
-        for end in 0..order.len() {
-            if order
-                .get(end + 1)
-                .map_or(true, |next| next.0 != order[end].0)
-            {
-                list.push((start, end + 1));
-                start = end + 1;
-            }
-        }
+        let cells = Cells::of(density, dx);
+        let touched = touched_blocks(density, &cells, budget)?;
+        let (order, list) = (&cells.order, &cells.list);
         let runs: HashMap<IVec3, (usize, usize)> = list
             .iter()
             .map(|&(start, end)| (order[start].0, (start, end)))
             .collect();
-        let reach = (density.h / side).ceil() as i32;
-
-        // The blocks some particle's support box reaches, listed once per run of a cell
-        // first: that list's size is known before it is made.
-        let boxes: Vec<(IVec3, IVec3)> = list
-            .par_iter()
-            .map(|&(start, end)| {
-                let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-                for &(_, i) in &order[start..end] {
-                    let (p, inv_h2) = density.particles[i as usize];
-                    let h = inv_h2.sqrt().recip();
-                    lo = lo.min(p - Vec3::splat(h));
-                    hi = hi.max(p + Vec3::splat(h));
-                }
-                (key(lo), key(hi))
-            })
-            .collect();
-        let listed: u64 = boxes
-            .iter()
-            .map(|&(lo, hi)| {
-                let n = (hi - lo + IVec3::ONE).as_u64vec3();
-                n.x * n.y * n.z
-            })
-            .sum();
-        let entry = std::mem::size_of::<IVec3>() as u64;
-        if listed.saturating_mul(entry) > budget {
-            return Err(listed.saturating_mul(entry));
-        }
-        let mut touched: Vec<IVec3> = boxes
-            .par_iter()
-            .flat_map_iter(|&(lo, hi)| {
-                (lo.x..=hi.x).flat_map(move |x| {
-                    (lo.y..=hi.y).flat_map(move |y| (lo.z..=hi.z).map(move |z| IVec3::new(x, y, z)))
-                })
-            })
-            .collect();
-        touched.par_sort_unstable_by_key(|c| c.to_array());
-        touched.dedup();
-        let channels = if density.has_velocities() { 8 } else { 4 };
-        let per_block = (channels * NODES * std::mem::size_of::<f32>()) as u64 + 64;
-        let needed = touched.len() as u64 * per_block;
-        if needed > budget {
-            return Err(needed);
-        }
-
+        let reach = (density.h / cells.side).ceil() as i32;
         // Particles piled on each other (a copied export, a broken one) cost each block
         // they reach as many splats as copies: merged first, once per crowded cell.
         let merged: HashMap<IVec3, Vec<Kernel>> = list
@@ -167,11 +106,10 @@ impl DensityGrid {
                 for x in -reach..=reach {
                     for y in -reach..=reach {
                         for z in -reach..=reach {
-                            let Some(&(start, end)) = runs.get(&(coord + IVec3::new(x, y, z)))
-                            else {
+                            let cell = coord + IVec3::new(x, y, z);
+                            let Some(&(start, end)) = runs.get(&cell) else {
                                 continue;
                             };
-                            let cell = coord + IVec3::new(x, y, z);
                             match merged.get(&cell) {
                                 Some(kernels) => {
                                     for &k in kernels {
@@ -208,7 +146,99 @@ impl DensityGrid {
         grid.mark_deep();
         Ok(grid)
     }
+}
 
+/// The particles sorted by the block-sized cell they lie in (then by index), and the runs
+/// of each cell in that order.
+struct Cells {
+    /// A block's side, world units.
+    side: f32,
+    /// (cell, particle index), sorted.
+    order: Vec<(IVec3, u32)>,
+    /// Each cell's run in `order`: start and end.
+    list: Vec<(usize, usize)>,
+}
+
+impl Cells {
+    fn of(density: &Density, dx: f32) -> Self {
+        let side = DIM as f32 * dx;
+        let mut order: Vec<(IVec3, u32)> = density
+            .particles
+            .par_iter()
+            .enumerate()
+            .map(|(i, &(p, _))| ((p / side).floor().as_ivec3(), i as u32))
+            .collect();
+        order.par_sort_unstable_by_key(|&(c, i)| (c.to_array(), i));
+        let mut list: Vec<(usize, usize)> = Vec::new();
+        let mut start = 0;
+        for end in 0..order.len() {
+            if order
+                .get(end + 1)
+                .map_or(true, |next| next.0 != order[end].0)
+            {
+                list.push((start, end + 1));
+                start = end + 1;
+            }
+        }
+        Cells { side, order, list }
+    }
+
+    /// The cell (block) of a point.
+    fn key(&self, p: Vec3) -> IVec3 {
+        (p / self.side).floor().as_ivec3()
+    }
+}
+
+/// The blocks some particle's support reaches, sorted, once each; `Err` with the bytes
+/// they (or the list that finds them) would take past `budget`.
+fn touched_blocks(density: &Density, cells: &Cells, budget: u64) -> Result<Vec<IVec3>, u64> {
+    let (order, list) = (&cells.order, &cells.list);
+    // The blocks some particle's support box reaches, listed once per run of a cell
+    // first: that list's size is known before it is made.
+    let boxes: Vec<(IVec3, IVec3)> = list
+        .par_iter()
+        .map(|&(start, end)| {
+            let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+            for &(_, i) in &order[start..end] {
+                let (p, inv_h2) = density.particles[i as usize];
+                let h = inv_h2.sqrt().recip();
+                lo = lo.min(p - Vec3::splat(h));
+                hi = hi.max(p + Vec3::splat(h));
+            }
+            (cells.key(lo), cells.key(hi))
+        })
+        .collect();
+    let listed: u64 = boxes
+        .iter()
+        .map(|&(lo, hi)| {
+            let n = (hi - lo + IVec3::ONE).as_u64vec3();
+            n.x * n.y * n.z
+        })
+        .sum();
+    let entry = std::mem::size_of::<IVec3>() as u64;
+    if listed.saturating_mul(entry) > budget {
+        return Err(listed.saturating_mul(entry));
+    }
+    let mut touched: Vec<IVec3> = boxes
+        .par_iter()
+        .flat_map_iter(|&(lo, hi)| {
+            (lo.x..=hi.x).flat_map(move |x| {
+                (lo.y..=hi.y).flat_map(move |y| (lo.z..=hi.z).map(move |z| IVec3::new(x, y, z)))
+            })
+        })
+        .collect();
+    touched.par_sort_unstable_by_key(|c| c.to_array());
+    touched.dedup();
+    let channels = if density.has_velocities() { 8 } else { 4 };
+    let per_block = (channels * NODES * std::mem::size_of::<f32>()) as u64 + 64;
+    let needed = touched.len() as u64 * per_block;
+    if needed > budget {
+        return Err(needed);
+    }
+    Ok(touched)
+}
+
+impl DensityGrid {
     /// The density's surface value.
     pub fn iso(&self) -> f32 {
         self.iso
