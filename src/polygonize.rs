@@ -79,61 +79,7 @@ impl Polygonizer {
                 .zip(self.sides.par_iter_mut()),
             grid,
             |((work, table), sides), block, halo, _| {
-                work.points.clear();
-                work.positions.clear();
-                work.normals.clear();
-                *table = EdgeTable::default();
-                let base = block.coord * BLOCK_DIM;
-                *sides = InsideRows::of(halo);
-                let rows = &*sides;
-                // Bit z: the edge from node z along x, y, z changes side.
-                let crossed_from = |x: i32, y: i32| {
-                    let r = rows.at(x, y);
-                    [
-                        (r ^ rows.at(x + 1, y)) >> 1,
-                        (r ^ rows.at(x, y + 1)) >> 1,
-                        (r ^ (r >> 1)) >> 1,
-                    ]
-                };
-                // Room for them all at once (a first mesh grows no vector edge by edge).
-                let count: u32 = block
-                    .active_rows()
-                    .map(|(x, y, active)| {
-                        let crossed = crossed_from(x, y);
-                        crossed
-                            .iter()
-                            .map(|c| (c & active).count_ones())
-                            .sum::<u32>()
-                    })
-                    .sum();
-                work.positions.reserve(count as usize);
-                work.normals.reserve(count as usize);
-                if !mesh_only {
-                    work.points.reserve(count as usize);
-                }
-                for (x, y, active) in block.active_rows() {
-                    let crossed = crossed_from(x, y);
-                    for z in bits(active & (crossed[0] | crossed[1] | crossed[2])) {
-                        let l = IVec3::new(x, y, z);
-                        let offset = node_offset(x, y, z);
-                        let fa = halo.at(l.x, l.y, l.z);
-                        for axis in (0..3).filter(|&a| crossed[a] >> z & 1 == 1) {
-                            let m = l + IVec3::AXES[axis];
-                            let fb = halo.at(m.x, m.y, m.z);
-                            let t = fa / (fa - fb);
-                            let along = IVec3::AXES[axis].as_vec3();
-                            let at = |t: f32| xf.apply(base.as_vec3() + l.as_vec3() + along * t);
-                            let g = gradient(halo, l).lerp(gradient(halo, m), t);
-                            table.mark(offset, axis);
-                            if !mesh_only {
-                                work.points.push(at(t));
-                            }
-                            work.positions
-                                .push(at(t.clamp(VERTEX_MARGIN, 1.0 - VERTEX_MARGIN)));
-                            work.normals.push(g.normalize_or_zero());
-                        }
-                    }
-                }
+                block_crossings((work, table, sides), block, halo, xf, mesh_only)
             },
         );
 
@@ -157,30 +103,110 @@ impl Polygonizer {
             .zip(self.sides.par_iter())
             .zip(grid.blocks().par_iter())
             .for_each(|((work, rows), block)| {
-                work.triangles.clear();
-                if block.active_count() == 0 {
-                    return;
-                }
-                // A closed surface has about two triangles per vertex.
-                work.triangles.reserve(2 * work.positions.len());
-                let local = shared.around(&grid.neighbourhood_of(block));
-                for (x, y, active) in block.active_rows() {
-                    let corners = [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)];
-                    let all = corners
-                        .iter()
-                        .fold(u16::MAX, |a, &(i, j)| a & rows.at(i, j));
-                    let any = corners.iter().fold(0, |a, &(i, j)| a | rows.at(i, j));
-                    // Bit z: the cube from node z has corners on both sides.
-                    let uniform = (all & (all >> 1)) | (!any & !(any >> 1));
-                    for z in bits(active & (!uniform >> 1)) {
-                        cube_triangles(rows, IVec3::new(x, y, z), &local, &mut work.triangles);
-                    }
-                }
+                block_cubes(work, rows, block, grid, shared);
             });
         concat(
             &mut mesh.triangles,
             self.work.iter().map(|w| &w.triangles[..]),
         );
+    }
+}
+
+/// Pass 1 for one block: the crossed edges whose lower node is in it, their vertices
+/// (and crossing points, unless `mesh_only`) and normals into `work`, marked in `table`;
+/// the block's `sides`, kept for pass 2.
+fn block_crossings<P: Potential>(
+    (work, table, sides): (&mut BlockWork, &mut EdgeTable, &mut InsideRows),
+    block: &Block<P>,
+    halo: &Halo,
+    xf: IndexToWorld,
+    mesh_only: bool,
+) {
+    work.points.clear();
+    work.positions.clear();
+    work.normals.clear();
+    *table = EdgeTable::default();
+    let base = block.coord * BLOCK_DIM;
+    *sides = InsideRows::of(halo);
+    let rows = &*sides;
+    // Bit z: the edge from node z along x, y, z changes side.
+    let crossed_from = |x: i32, y: i32| {
+        let r = rows.at(x, y);
+        [
+            (r ^ rows.at(x + 1, y)) >> 1,
+            (r ^ rows.at(x, y + 1)) >> 1,
+            (r ^ (r >> 1)) >> 1,
+        ]
+    };
+    // Room for them all at once (a first mesh grows no vector edge by edge).
+    let count: u32 = block
+        .active_rows()
+        .map(|(x, y, active)| {
+            let crossed = crossed_from(x, y);
+            crossed
+                .iter()
+                .map(|c| (c & active).count_ones())
+                .sum::<u32>()
+        })
+        .sum();
+    work.positions.reserve(count as usize);
+    work.normals.reserve(count as usize);
+    if !mesh_only {
+        work.points.reserve(count as usize);
+    }
+    for (x, y, active) in block.active_rows() {
+        let crossed = crossed_from(x, y);
+        for z in bits(active & (crossed[0] | crossed[1] | crossed[2])) {
+            let l = IVec3::new(x, y, z);
+            let offset = node_offset(x, y, z);
+            let fa = halo.at(l.x, l.y, l.z);
+            for axis in (0..3).filter(|&a| crossed[a] >> z & 1 == 1) {
+                let m = l + IVec3::AXES[axis];
+                let fb = halo.at(m.x, m.y, m.z);
+                let t = fa / (fa - fb);
+                let along = IVec3::AXES[axis].as_vec3();
+                let at = |t: f32| xf.apply(base.as_vec3() + l.as_vec3() + along * t);
+                let g = gradient(halo, l).lerp(gradient(halo, m), t);
+                table.mark(offset, axis);
+                if !mesh_only {
+                    work.points.push(at(t));
+                }
+                work.positions
+                    .push(at(t.clamp(VERTEX_MARGIN, 1.0 - VERTEX_MARGIN)));
+                work.normals.push(g.normalize_or_zero());
+            }
+        }
+    }
+}
+
+/// Pass 2 for one block: the triangles of the cubes whose lower corner is one of its
+/// active nodes, from the sides pass 1 kept (`rows`; no halo to gather again) and the
+/// vertices it numbered (`shared`).
+fn block_cubes<P: Potential>(
+    work: &mut BlockWork,
+    rows: &InsideRows,
+    block: &Block<P>,
+    grid: &SparseGrid<P>,
+    shared: &Crossings,
+) {
+    work.triangles.clear();
+    if block.active_count() == 0 {
+        return;
+    }
+    // A closed surface has about two triangles per vertex.
+    work.triangles.reserve(2 * work.positions.len());
+    let local = shared.around(&grid.neighbourhood_of(block));
+    for (x, y, active) in block.active_rows() {
+        let corners = [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)];
+        let all = corners
+            .iter()
+            .fold(u16::MAX, |a, &(i, j)| a & rows.at(i, j));
+        let any = corners.iter().fold(0, |a, &(i, j)| a | rows.at(i, j));
+        // Bit z: the cube from node z has corners on both sides.
+        let uniform = (all & (all >> 1)) | (!any & !(any >> 1));
+        for z in bits(active & (!uniform >> 1)) {
+            cube_triangles(rows, IVec3::new(x, y, z), &local, &mut work.triangles);
+        }
     }
 }
 

@@ -156,22 +156,7 @@ pub fn openvdb_mesh(grid: &Grid) -> Result<Mesh, VdbError> {
 
 /// Compares our mesh and measures with OpenVDB's on a level set.
 pub fn compare(grid: &Grid) -> Result<Report, VdbError> {
-    if grid.class() != GridClass::LevelSet {
-        return Err(VdbError::Grid(format!(
-            "grid '{}' is not a level set",
-            grid.name()
-        )));
-    }
-    let data = grid.to_data()?;
-    // OpenVDB's tools take such tiles as liquid out to the tree's edge: their meshes and
-    // measures would compare a box of up to 4096³ voxels (a gigabyte, seconds) to ours.
-    if data.background > 0.0 && data.tiles_within_leaves().is_some() {
-        return Err(VdbError::Grid(format!(
-            "grid '{}': inside tiles reach past its active voxels (a band left open, then flood-filled): not a closed level set, so OpenVDB's tools cannot be compared on it (`activeskin mesh` closes it where its voxels end)",
-            grid.name()
-        )));
-    }
-    let dx = data.transform.voxel_size();
+    let dx = comparable(grid)?;
     let ours = our_mesh(grid)?;
     let theirs = openvdb_mesh(grid)?;
     let measures = grid.measure_level_set()?;
@@ -211,11 +196,13 @@ pub fn compare(grid: &Grid) -> Result<Report, VdbError> {
     };
     // The χ our mesh takes within a quarter voxel of the surface: a χ of OpenVDB's
     // among them is a topology the grid does not settle.
-    let mut nearby_chi = Vec::new();
-    for k in [-1.0, -0.5, 0.5, 1.0] {
-        let offset = k * THIN_OFFSET * dx as f32;
-        nearby_chi.push(our_mesh_at(grid, offset)?.euler_characteristic() as f64);
-    }
+    let nearby_chi = [-1.0, -0.5, 0.5, 1.0]
+        .into_iter()
+        .map(|k| {
+            let offset = k * THIN_OFFSET * dx as f32;
+            Ok(our_mesh_at(grid, offset)?.euler_characteristic() as f64)
+        })
+        .collect::<Result<Vec<f64>, VdbError>>()?;
     let their_chi = theirs.euler_characteristic() as f64;
     let by_chi = |ours: f64, openvdb: f64| Row {
         explained: match ours != openvdb {
@@ -234,12 +221,7 @@ pub fn compare(grid: &Grid) -> Result<Report, VdbError> {
     };
     let chi = ours.euler_characteristic() as f64;
     let hausdorff = hausdorff(&ours, &theirs, dx as f32) / dx;
-    let verdict = grid.check_level_set()?;
-    let exact_flagged = match &verdict {
-        Some(message) if message.contains("NormGrad") => Some(eikonal_against_exact(grid)?.1),
-        _ => None,
-    };
-    let check = verdict.unwrap_or_default();
+    let (check, exact_flagged) = checked(grid)?;
     // Features thinner than a voxel: checkLevelSet flags voxels, no more than on the exact
     // conversion of the same surface.
     let thin_features = exact_flagged.is_some_and(|exact| flagged_voxels(&check) <= exact);
@@ -284,6 +266,38 @@ pub fn compare(grid: &Grid) -> Result<Report, VdbError> {
         check,
         exact_flagged,
     })
+}
+
+/// The voxel size of `grid` when OpenVDB's tools can be compared with ours on it: a
+/// level set, closed.
+fn comparable(grid: &Grid) -> Result<f64, VdbError> {
+    if grid.class() != GridClass::LevelSet {
+        return Err(VdbError::Grid(format!(
+            "grid '{}' is not a level set",
+            grid.name()
+        )));
+    }
+    let data = grid.to_data()?;
+    // OpenVDB's tools take such tiles as liquid out to the tree's edge: their meshes and
+    // measures would compare a box of up to 4096³ voxels (a gigabyte, seconds) to ours.
+    if data.background > 0.0 && data.tiles_within_leaves().is_some() {
+        return Err(VdbError::Grid(format!(
+            "grid '{}': inside tiles reach past its active voxels (a band left open, then flood-filled): not a closed level set, so OpenVDB's tools cannot be compared on it (`activeskin mesh` closes it where its voxels end)",
+            grid.name()
+        )));
+    }
+    Ok(data.transform.voxel_size())
+}
+
+/// checkLevelSet's diagnostic on `grid` (empty when valid) and, when it flags the
+/// gradient's norm, the voxels it flags on the exact conversion of the same surface.
+fn checked(grid: &Grid) -> Result<(String, Option<usize>), VdbError> {
+    let verdict = grid.check_level_set()?;
+    let exact_flagged = match &verdict {
+        Some(message) if message.contains("NormGrad") => Some(eikonal_against_exact(grid)?.1),
+        _ => None,
+    };
+    Ok((verdict.unwrap_or_default(), exact_flagged))
 }
 
 /// checkLevelSet's verdict on `grid` and on OpenVDB's meshToLevelSet of our mesh of the
