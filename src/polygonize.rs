@@ -313,30 +313,40 @@ fn cube_triangles(
 #[cfg(test)]
 fn distance_in_cells_around(halo: &Halo, l: IVec3) -> f32 {
     let p = l.as_vec3();
-    let value = |m: IVec3| halo.at(m.x, m.y, m.z);
     let mut best = f32::INFINITY;
+    let mut triangles = [[Vec3::ZERO; 3]; cases::MAX_TRIANGLES];
     for c in 0..8 {
-        let cell = l - IVec3::ONE + corner_offset(c);
-        let signs = (0..8).fold(0u8, |s, k| {
-            s | u8::from(inside(value(cell + corner_offset(k)))) << k
-        });
-        if signs == 0 || signs == 0xFF {
-            continue;
-        }
-        let vertex = |e: u8| {
-            let (a, _) = EDGE_CORNERS[e as usize];
-            let along = IVec3::AXES[edge_axis(e as usize)];
-            let from = cell + corner_offset(a);
-            let (fa, fb) = (value(from), value(from + along));
-            let t = (fa / (fa - fb)).clamp(VERTEX_MARGIN, 1.0 - VERTEX_MARGIN);
-            from.as_vec3() + along.as_vec3() * t
-        };
-        for t in cases::table()[signs as usize].triangles() {
-            let [a, b, c] = t.map(vertex);
+        let cut = cut_cell(halo, l - IVec3::ONE + corner_offset(c), &mut triangles);
+        for &[a, b, c] in &triangles[..cut] {
             best = best.min(crate::mesh::point_triangle_distance(p, a, b, c));
         }
     }
     best
+}
+
+/// The triangles the polygonizer cuts in the cell whose lowest corner is local node
+/// `cell` of `halo`, vertices clamped as the mesh's are, into `out`: how many.
+fn cut_cell(halo: &Halo, cell: IVec3, out: &mut [[Vec3; 3]; cases::MAX_TRIANGLES]) -> usize {
+    let value = |m: IVec3| halo.at(m.x, m.y, m.z);
+    let signs = (0..8).fold(0u8, |s, k| {
+        s | u8::from(inside(value(cell + corner_offset(k)))) << k
+    });
+    if signs == 0 || signs == 0xFF {
+        return 0;
+    }
+    let vertex = |e: u8| {
+        let (a, _) = EDGE_CORNERS[e as usize];
+        let along = IVec3::AXES[edge_axis(e as usize)];
+        let from = cell + corner_offset(a);
+        let (fa, fb) = (value(from), value(from + along));
+        let t = (fa / (fa - fb)).clamp(VERTEX_MARGIN, 1.0 - VERTEX_MARGIN);
+        from.as_vec3() + along.as_vec3() * t
+    };
+    let case = cases::table()[signs as usize].triangles();
+    for (slot, t) in out.iter_mut().zip(case) {
+        *slot = t.map(vertex);
+    }
+    case.len()
 }
 
 /// [`distance_in_cells_around`] for every node of the block flagged in `wanted` (local
@@ -360,7 +370,6 @@ pub(crate) fn distances_in_cells_around(
             cells[i / 64] |= 1 << (i % 64);
         }
     }
-    let value = |m: IVec3| halo.at(m.x, m.y, m.z);
     let is_wanted = |n: IVec3| {
         n.cmpge(IVec3::ZERO).all() && n.cmplt(IVec3::splat(BLOCK_DIM)).all() && {
             let o = node_offset(n.x, n.y, n.z);
@@ -372,28 +381,12 @@ pub(crate) fn distances_in_cells_around(
     for i in crate::grid::mask_offsets(cells) {
         let i = i as i32;
         let cell = IVec3::new(i / (SIDE * SIDE), i / SIDE % SIDE, i % SIDE) - IVec3::ONE;
-        let signs = (0..8).fold(0u8, |s, k| {
-            s | u8::from(inside(value(cell + corner_offset(k)))) << k
-        });
-        if signs == 0 || signs == 0xFF {
+        let cut = cut_cell(halo, cell, &mut triangles);
+        if cut == 0 {
             continue;
         }
-        // As the node-by-node search finds them.
-        let vertex = |e: u8| {
-            let (a, _) = EDGE_CORNERS[e as usize];
-            let along = IVec3::AXES[edge_axis(e as usize)];
-            let from = cell + corner_offset(a);
-            let (fa, fb) = (value(from), value(from + along));
-            let t = (fa / (fa - fb)).clamp(VERTEX_MARGIN, 1.0 - VERTEX_MARGIN);
-            from.as_vec3() + along.as_vec3() * t
-        };
-        let case = cases::table()[signs as usize].triangles();
-        for ((out, aabb), t) in triangles.iter_mut().zip(&mut boxes).zip(case) {
-            *out = t.map(vertex);
-            *aabb = (
-                out[0].min(out[1]).min(out[2]),
-                out[0].max(out[1]).max(out[2]),
-            );
+        for (aabb, t) in boxes.iter_mut().zip(&triangles[..cut]) {
+            *aabb = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
         }
         for k in 0..8 {
             let n = cell + corner_offset(k);
@@ -401,7 +394,7 @@ pub(crate) fn distances_in_cells_around(
                 continue;
             }
             let (p, slot) = (n.as_vec3(), &mut best[node_offset(n.x, n.y, n.z)]);
-            for (&[a, b, c], &(lo, hi)) in triangles.iter().zip(&boxes).take(case.len()) {
+            for (&[a, b, c], &(lo, hi)) in triangles.iter().zip(&boxes).take(cut) {
                 // A triangle whose box lies farther than the best so far cannot lower
                 // it (the margin covers rounding: the minimum stays bit for bit).
                 let outside = (lo - p).max(p - hi).max(Vec3::ZERO);
