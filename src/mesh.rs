@@ -6,10 +6,12 @@ use rayon::prelude::*;
 
 mod check;
 mod nearest;
+mod relax;
 
 pub use check::MeshCheck;
 pub(crate) use nearest::point_triangle_distance;
 pub use nearest::{hausdorff, mean_distance, TriangleIndex};
+pub use relax::{relax_on_surface, Surface};
 
 #[derive(Debug, Clone, Default)]
 pub struct Mesh {

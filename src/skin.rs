@@ -10,6 +10,7 @@ mod any;
 mod band;
 mod carry;
 mod export;
+mod relax;
 mod seed;
 mod smooth;
 pub mod speed;

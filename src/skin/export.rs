@@ -72,6 +72,9 @@ impl<P: Potential> Skin<P> {
         self.grid.import(data, |phi| phi / scale);
         crate::grid::tube::upkeep(&mut self.grid);
         self.polygonize();
+        if self.params.smoothing > 0.0 {
+            self.relax_mesh();
+        }
         Ok(())
     }
 
