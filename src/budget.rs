@@ -56,6 +56,27 @@ pub fn particles_fit(n: usize) -> Result<(), u64> {
     }
 }
 
+/// The bytes the process holds in memory now (its resident set), where the system says.
+pub fn resident_bytes() -> Option<u64> {
+    let statm = std::fs::read_to_string("/proc/self/statm").ok()?;
+    let pages: u64 = statm.split_whitespace().nth(1)?.parse().ok()?;
+    // SAFETY: sysconf only reads a configuration value.
+    let page = unsafe { libc::sysconf(libc::_SC_PAGESIZE) };
+    Some(pages.saturating_mul(u64::try_from(page).ok()?))
+}
+
+/// Whether the next frame may be read while this one settles ([`crate::frames::run`]):
+/// that holds a second frame's input beside the one the process already holds, so it
+/// is done while the process holds at most half the budget (always where the system
+/// does not say what it holds).
+pub fn room_for_another_frame() -> bool {
+    room_within(resident_bytes(), bytes())
+}
+
+fn room_within(resident: Option<u64>, budget: u64) -> bool {
+    resident.map_or(true, |held| held.saturating_mul(2) <= budget)
+}
+
 /// `bytes` for messages, in kB, MB, GB or TB.
 pub fn size(bytes: u64) -> String {
     let b = bytes as f64;
@@ -70,6 +91,15 @@ pub fn size(bytes: u64) -> String {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_frame_is_read_ahead_only_within_half_the_budget() {
+        let held = super::resident_bytes().expect("Linux says what a process holds");
+        assert!(held > 1 << 20, "{held} bytes resident");
+        assert!(super::room_within(Some(held), 2 * held));
+        assert!(!super::room_within(Some(held), 2 * held - 1));
+        assert!(super::room_within(None, 0));
+    }
+
     #[test]
     fn sizes_read_in_their_unit() {
         assert_eq!(super::size(4_670_712), "4.7 MB");

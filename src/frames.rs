@@ -262,7 +262,8 @@ pub fn run<'t>(
     let mut settled_before = restored.filter(|_| writing.any_velocities());
     let smooths = skin.params().smoothing > 0.0;
     // The next frame's input, read while this one settles and is written (it does not
-    // depend on the skin): its error, if any, is said once this frame is written.
+    // depend on the skin), while the memory budget has room for two frames' inputs: its
+    // error, if any, is said once this frame is written.
     let mut next: Option<Result<FrameInput<'t>, FrameError>> = None;
     for frame in start..=last {
         let started = Instant::now();
@@ -302,7 +303,8 @@ pub fn run<'t>(
         let settle = |skin: &mut AnySkin, outputs: &mut Outputs| {
             settle_and_write(skin, outputs, &writing, &this, settled_before.as_ref())
         };
-        let level_set = match read_ahead && frame < last {
+        let ahead = read_ahead && frame < last && crate::budget::room_for_another_frame();
+        let level_set = match ahead {
             true => {
                 let (settled, read) =
                     rayon::join(|| settle(&mut skin, outputs), || input_at(frame + 1));
