@@ -8,7 +8,6 @@ macro_rules! usage {
 }
 
 mod args;
-mod bench;
 mod demo;
 mod farm;
 mod info;
@@ -61,7 +60,7 @@ enum Command {
     /// tolerance).
     Validate(validate::ValidateArgs),
     /// Ours and OpenVDB side by side: step throughput, meshing, memory, scaling.
-    Bench(bench::BenchArgs),
+    Bench(crate::bench::BenchArgs),
     /// The built-in demo: the Fig. 7 morph, a moving target and a particle splash, written to ./out.
     Demo(demo::DemoArgs),
     /// Mesh a level set (or a fog volume at --iso) with activeskin's polygonizer.
@@ -159,7 +158,7 @@ pub fn run() -> ExitCode {
         Command::Demo(args) => demo::run(&args),
         Command::Render(args) => render::run(&args),
         Command::Validate(args) => validate::run(&args),
-        Command::Bench(args) => bench::run(&args),
+        Command::Bench(args) => crate::bench::run(&args),
         Command::Farm(args) => farm::run(&args),
     };
     match result {

@@ -1,5 +1,6 @@
 use std::process::ExitCode;
 
+mod bench;
 mod cli;
 
 fn main() -> ExitCode {

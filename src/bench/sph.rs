@@ -579,6 +579,139 @@ fn twist(dir: &Path, fps: f32) -> anyhow::Result<Shot> {
     })
 }
 
+/// Our run on `shot` at its defaults (and `extra`), meshes into `dir`: timed as
+/// splashsurf is, meshes only; then again with --stats (`ours.jsonl`) for the sub-steps
+/// and each frame's time (its mesh checks cost a quarter of a frame), the same meshes.
+/// The first run's wall seconds.
+fn run_ours(shot: &Shot, dir: &Path, extra: &str) -> anyhow::Result<f64> {
+    let input = shot.dir.join(format!("{STEM}$F.ply"));
+    let radius = shot.r.to_string();
+    let ours = |stats: bool| {
+        let mut command = Command::new(std::env::current_exe()?);
+        command
+            .arg("particles")
+            .arg("--particles")
+            .arg(&input)
+            .args(["--radius", &radius, "--voxel-size", &radius, "-q"])
+            .args(["--fps", &shot.fps.to_string()])
+            .arg("--mesh")
+            .arg(dir.join("ours_####.obj"))
+            .arg("--frames")
+            .arg(format!("1-{}", shot.frames));
+        if stats {
+            command.arg("--stats").arg(dir.join("ours.jsonl"));
+        }
+        command.args(extra.split_whitespace());
+        timed(&mut command)
+    };
+    let seconds = ours(false)?;
+    ours(true)?;
+    Ok(seconds)
+}
+
+/// splashsurf on `shot` (raw, or with `extra`, the post-processing its README recommends
+/// for a smooth surface), meshes `{prefix}_{frame}.obj` into `dir`: its wall seconds,
+/// `None` without it.
+fn run_splashsurf(
+    shot: &Shot,
+    dir: &Path,
+    splashsurf: Option<&Path>,
+    extra: &[&str],
+    prefix: &str,
+) -> anyhow::Result<Option<f64>> {
+    let (cache, frames, radius) = (&shot.dir, shot.frames, shot.r.to_string());
+    let Some(binary) = splashsurf else {
+        return Ok(None);
+    };
+    Ok(Some(timed(
+        Command::new(binary)
+            .arg("reconstruct")
+            .arg(cache.join(format!("{STEM}{{}}.ply")))
+            .args(["-r", &radius, "-l", "2.0", "-c", "1.0", "-t", "0.6", "-q"])
+            .args(extra)
+            .args(["-n", &rayon::current_num_threads().to_string()])
+            .args(["-s", "1", "-e", &frames.to_string()])
+            .arg("--output-dir")
+            .arg(dir)
+            .args(["-o", &format!("{prefix}_{{}}.obj")]),
+    )?))
+}
+
+/// Lag: each frame's skin against that frame's own density iso-surface, mean voxels.
+fn lag(shot: &Shot, meshes: &[Mesh]) -> anyhow::Result<Vec<f64>> {
+    let (cache, r) = (&shot.dir, shot.r);
+    let density = ParticleInput {
+        radius: r,
+        ignore_radii: false,
+        smoothing_length: DEFAULT_SMOOTHING_LENGTH,
+        iso: fluid_iso(DEFAULT_SMOOTHING_LENGTH),
+        density_out: None,
+        dx: r,
+        velocity_scale: None,
+        attributes: Default::default(),
+    };
+    meshes
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let target =
+                density.target(&cache.join(format!("{STEM}{}.ply", k + 1)), k as i64 + 1)?;
+            let sum: f64 = m
+                .positions
+                .par_iter()
+                .map(|&p| f64::from(target.distance(p).abs()))
+                .sum();
+            Ok(sum / m.positions.len().max(1) as f64 / f64::from(r))
+        })
+        .collect()
+}
+
+/// The race's line: ours (`measured`, wall seconds, lag, sub-steps) and splashsurf raw's.
+fn summary_line(
+    shot: &Shot,
+    (particles, extra): (usize, &str),
+    (ours, ours_s, lag, substeps): (&Measured, f64, &[f64], &[u64]),
+    theirs: Option<(&Measured, f64)>,
+) -> String {
+    let frames = shot.frames;
+    let per_frame = |s: f64| s / frames as f64 * 1e3;
+    let (v_lo, v_hi) = range(&ours.volume);
+    format!(
+        "particles, {} ({} particles, {frames} frames, cell = r)   ours{} {:.0} ms/frame, volume/N(2r)³ {v_lo:.3}–{v_hi:.3}, {:.2} % of particles > r outside, noise {:.3} voxel, flicker {:.3} voxel (median {:.3}), {:.3} voxel from each frame's density, sub-steps {}–{}{}",
+        shot.name,
+        particles,
+        match extra.trim() {
+            "" => String::new(),
+            given => format!(" ({given})"),
+        },
+        per_frame(ours_s),
+        100.0 * range(&ours.outside).1,
+        mean(&ours.noise),
+        mean(&ours.flicker),
+        median(&ours.flicker),
+        mean(lag),
+        substeps.iter().min().unwrap_or(&0),
+        substeps.iter().max().unwrap_or(&0),
+        match theirs {
+            Some((t, s)) => {
+                let (lo, hi) = range(&t.volume);
+                format!(
+                    "   splashsurf {:.0} ms/frame, volume {lo:.3}–{hi:.3}, {:.2} % outside, noise {:.3}, flicker {:.3} (median {:.3})   time ratio {:.2}, noise ratio {:.2}, flicker ratio {:.2}",
+                    per_frame(s),
+                    100.0 * range(&t.outside).1,
+                    mean(&t.noise),
+                    mean(&t.flicker),
+                    median(&t.flicker),
+                    ours_s / s,
+                    mean(&ours.noise) / mean(&t.noise),
+                    mean(&ours.flicker) / mean(&t.flicker),
+                )
+            }
+            _ => String::new(),
+        }
+    )
+}
+
 /// Races activeskin at its defaults (and `extra`) against splashsurf on `shot`.
 fn race_on(
     shot: &Shot,
@@ -591,51 +724,9 @@ fn race_on(
     let (cache, frames, r) = (&shot.dir, shot.frames, shot.r);
     let dir = root.join("sph");
     std::fs::create_dir_all(&dir)?;
-    let input = cache.join(format!("{STEM}$F.ply"));
-    let radius = r.to_string();
-    // Timed as splashsurf is, meshes only; then again with --stats for the sub-steps and
-    // each frame's time (its mesh checks cost a quarter of a frame), the same meshes.
-    let ours = |stats: bool| {
-        let mut command = Command::new(std::env::current_exe()?);
-        command
-            .arg("particles")
-            .arg("--particles")
-            .arg(&input)
-            .args(["--radius", &radius, "--voxel-size", &radius, "-q"])
-            .args(["--fps", &shot.fps.to_string()])
-            .arg("--mesh")
-            .arg(dir.join("ours_####.obj"))
-            .arg("--frames")
-            .arg(format!("1-{frames}"));
-        if stats {
-            command.arg("--stats").arg(dir.join("ours.jsonl"));
-        }
-        command.args(extra.split_whitespace());
-        timed(&mut command)
-    };
-    let ours_s = ours(false)?;
-    ours(true)?;
-    // splashsurf raw, then with the post-processing its README recommends for a smooth
-    // surface: each run's wall seconds, meshes `{prefix}_{frame}.obj`.
-    let splashsurf_run = |extra: &[&str], prefix: &str| -> anyhow::Result<Option<f64>> {
-        let Some(binary) = splashsurf else {
-            return Ok(None);
-        };
-        Ok(Some(timed(
-            Command::new(binary)
-                .arg("reconstruct")
-                .arg(cache.join(format!("{STEM}{{}}.ply")))
-                .args(["-r", &radius, "-l", "2.0", "-c", "1.0", "-t", "0.6", "-q"])
-                .args(extra)
-                .args(["-n", &rayon::current_num_threads().to_string()])
-                .args(["-s", "1", "-e", &frames.to_string()])
-                .arg("--output-dir")
-                .arg(&dir)
-                .args(["-o", &format!("{prefix}_{{}}.obj")]),
-        )?))
-    };
-    let theirs_s = splashsurf_run(&[], "theirs")?;
-    let smoothed_s = splashsurf_run(&SPLASHSURF_SMOOTHING, "smoothed")?;
+    let ours_s = run_ours(shot, &dir, extra)?;
+    let theirs_s = run_splashsurf(shot, &dir, splashsurf, &[], "theirs")?;
+    let smoothed_s = run_splashsurf(shot, &dir, splashsurf, &SPLASHSURF_SMOOTHING, "smoothed")?;
     let clouds: Vec<Vec<Vec3>> = (1..=frames)
         .map(|f| Ok(particles::read(&cache.join(format!("{STEM}{f}.ply")))?.positions))
         .collect::<anyhow::Result<_>>()?;
@@ -649,31 +740,7 @@ fn race_on(
     };
     let ours_meshes = read(&|f| format!("ours_{f:04}.obj"))?;
     let ours = measure(&ours_meshes, &clouds, r, r)?;
-    // Lag: each frame's skin against that frame's own density iso-surface.
-    let density = ParticleInput {
-        radius: r,
-        ignore_radii: false,
-        smoothing_length: DEFAULT_SMOOTHING_LENGTH,
-        iso: fluid_iso(DEFAULT_SMOOTHING_LENGTH),
-        density_out: None,
-        dx: r,
-        velocity_scale: None,
-        attributes: Default::default(),
-    };
-    let lag: Vec<f64> = ours_meshes
-        .iter()
-        .enumerate()
-        .map(|(k, m)| {
-            let target =
-                density.target(&cache.join(format!("{STEM}{}.ply", k + 1)), k as i64 + 1)?;
-            let sum: f64 = m
-                .positions
-                .par_iter()
-                .map(|&p| f64::from(target.distance(p).abs()))
-                .sum();
-            Ok(sum / m.positions.len().max(1) as f64 / f64::from(r))
-        })
-        .collect::<anyhow::Result<_>>()?;
+    let lag = lag(shot, &ours_meshes)?;
     let measured = |prefix: &str| -> anyhow::Result<Option<Measured>> {
         match splashsurf {
             Some(_) => Ok(Some(measure(
@@ -711,40 +778,11 @@ fn race_on(
         .collect();
 
     let per_frame = |s: f64| s / frames as f64 * 1e3;
-    let (v_lo, v_hi) = range(&ours.volume);
-    lines.push(format!(
-        "particles, {} ({} particles, {frames} frames, cell = r)   ours{} {:.0} ms/frame, volume/N(2r)³ {v_lo:.3}–{v_hi:.3}, {:.2} % of particles > r outside, noise {:.3} voxel, flicker {:.3} voxel (median {:.3}), {:.3} voxel from each frame's density, sub-steps {}–{}{}",
-        shot.name,
-        clouds[0].len(),
-        match extra.trim() {
-            "" => String::new(),
-            given => format!(" ({given})"),
-        },
-        per_frame(ours_s),
-        100.0 * range(&ours.outside).1,
-        mean(&ours.noise),
-        mean(&ours.flicker),
-        median(&ours.flicker),
-        mean(&lag),
-        substeps.iter().min().unwrap_or(&0),
-        substeps.iter().max().unwrap_or(&0),
-        match (&theirs, theirs_s) {
-            (Some(t), Some(s)) => {
-                let (lo, hi) = range(&t.volume);
-                format!(
-                    "   splashsurf {:.0} ms/frame, volume {lo:.3}–{hi:.3}, {:.2} % outside, noise {:.3}, flicker {:.3} (median {:.3})   time ratio {:.2}, noise ratio {:.2}, flicker ratio {:.2}",
-                    per_frame(s),
-                    100.0 * range(&t.outside).1,
-                    mean(&t.noise),
-                    mean(&t.flicker),
-                    median(&t.flicker),
-                    ours_s / s,
-                    mean(&ours.noise) / mean(&t.noise),
-                    mean(&ours.flicker) / mean(&t.flicker),
-                )
-            }
-            _ => String::new(),
-        }
+    lines.push(summary_line(
+        shot,
+        (clouds[0].len(), extra),
+        (&ours, ours_s, &lag, &substeps),
+        theirs.as_ref().zip(theirs_s),
     ));
     let side = |m: &Measured, seconds: f64| {
         json!({"ms_per_frame": per_frame(seconds), "volume_ratio": m.volume,

@@ -200,19 +200,39 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// What a race adds to the report: a line to print, a JSON entry.
+type Report = serde_json::Map<String, serde_json::Value>;
+
 /// Ours against OpenVDB: step, meshing, memory, scaling, morph races, advection, flicker.
 fn solver_races(
     args: &BenchArgs,
     lines: &mut Vec<String>,
-    report: &mut serde_json::Map<String, serde_json::Value>,
+    report: &mut Report,
 ) -> anyhow::Result<()> {
-    let threads = rayon::current_num_threads();
+    // A sphere of r = 100 voxels: the step, meshing and memory races' level set.
+    let dx = 0.01f32;
+    let source = Grid::level_set_sphere(1.0, [0.0; 3], dx, 3.0)?;
+    step_race(&source, dx, lines, report)?;
+    meshing_race(&source, dx, lines, report)?;
+    memory_race(&source, dx, lines, report);
+    scaling(args, lines, report)?;
+    morph_races(args, lines, report)?;
+    advection_race_line(lines, report)?;
+    flicker_line(lines, report);
+    Ok(())
+}
 
+/// One step of ours against one CFL iteration of LevelSetMorphing, then ours with a
+/// velocity.
+fn step_race(
+    source: &Grid,
+    dx: f32,
+    lines: &mut Vec<String>,
+    report: &mut Report,
+) -> anyhow::Result<()> {
     // Per-step throughput, r = 100 voxels: one full step of ours (speed, update, upkeep,
     // renormalisation, polygonization) against one CFL iteration of LevelSetMorphing.
-    let dx = 0.01f32;
     let (our_seconds, our_nodes) = our_step(100.0, 10);
-    let source = Grid::level_set_sphere(1.0, [0.0; 3], dx, 3.0)?;
     let target = Grid::level_set_sphere(1.04, [0.0; 3], dx, 3.0)?;
     let morph = source.morph_timing(&target, 0.2)?;
     let their_seconds = morph.seconds / morph.iterations.max(1) as f64;
@@ -240,6 +260,16 @@ fn solver_races(
         flow_nodes / flow_seconds / 1e6, flow_seconds * 1e3, flow_nodes / 1e6, our_seconds / flow_seconds
     ));
 
+    Ok(())
+}
+
+/// Our polygonizer against volumeToMesh on `source`.
+fn meshing_race(
+    source: &Grid,
+    dx: f32,
+    lines: &mut Vec<String>,
+    report: &mut Report,
+) -> anyhow::Result<()> {
     // Meshing the same band: our polygonizer on the level set imported into our blocks
     // (import untimed), against volumeToMesh on the OpenVDB grid; each side's second run is
     // timed (our buffers are reused from frame to frame).
@@ -281,6 +311,11 @@ fn solver_races(
         theirs_mesh_s / ours_mesh_s
     ));
 
+    Ok(())
+}
+
+/// Our skin's bytes against OpenVDB's grid's.
+fn memory_race(source: &Grid, dx: f32, lines: &mut Vec<String>, report: &mut Report) {
     // Memory of the same skin, after a few steps of growth toward a larger sphere: the
     // arena's spare capacity is counted as it is during a run.
     fn settled<P: activeskin::grid::Potential>(dx: f32) -> usize {
@@ -305,7 +340,11 @@ fn solver_races(
         f32_bytes as f64 / 1e6, fixed_bytes as f64 / 1e6, vdb_bytes as f64 / 1e6,
         f32_bytes as f64 / vdb_bytes as f64, fixed_bytes as f64 / vdb_bytes as f64
     ));
+}
 
+/// Our step's cost against the sphere's size (area: exponent 2), and against one thread.
+fn scaling(args: &BenchArgs, lines: &mut Vec<String>, report: &mut Report) -> anyhow::Result<()> {
+    let threads = rayon::current_num_threads();
     // Scaling with the sphere's size: cost ∝ area gives exponent 2 in n.
     let mut sizes = vec![128.0f64, 256.0, 512.0];
     if args.full {
@@ -340,6 +379,15 @@ fn solver_races(
         serial / parallel
     ));
 
+    Ok(())
+}
+
+/// Morphs to accuracy, ours against LevelSetMorphing.
+fn morph_races(
+    args: &BenchArgs,
+    lines: &mut Vec<String>,
+    report: &mut Report,
+) -> anyhow::Result<()> {
     // Morph to accuracy: β = 0 on both sides, then with tension (OpenVDB's mean-curvature
     // filter interleaved at the same rate).
     let torus = Torus {
@@ -383,6 +431,11 @@ fn solver_races(
     }
     report.insert("morph_to_accuracy".into(), json!(races));
 
+    Ok(())
+}
+
+/// [`advection_race`] reported.
+fn advection_race_line(lines: &mut Vec<String>, report: &mut Report) -> anyhow::Result<()> {
     // Advection (§7): one turn of a sphere, ours against OpenVDB's LevelSetAdvection.
     let turn = advection_race()?;
     lines.push(format!(
@@ -398,6 +451,11 @@ fn solver_races(
                "ours_substeps": turn.ours_steps, "openvdb_iterations": turn.openvdb_steps}),
     );
 
+    Ok(())
+}
+
+/// The skin against per-frame surfacing on a jittered static cloud.
+fn flicker_line(lines: &mut Vec<String>, report: &mut Report) {
     // Temporal quality on a jittered static cloud: the skin against per-frame surfacing.
     let f = activeskin::measure::flicker::jittered_ball(0.05, 0.3, 16, 4.0);
     report.insert(
@@ -409,7 +467,6 @@ fn solver_races(
         "flicker, jittered static cloud   skin {:.3} voxel/frame   per-frame surfacing {:.3}   {:.1}× less (error {:.3} vs {:.3} voxel)",
         f.skin, f.per_frame, f.per_frame / f.skin, f.skin_error, f.per_frame_error
     ));
-    Ok(())
 }
 
 /// One turn of the advection race.
