@@ -9,6 +9,7 @@
 //! uninterrupted run bit for bit.
 
 mod inputs;
+mod level_set_run;
 mod level_sets;
 mod outputs;
 mod particle_run;
@@ -23,6 +24,7 @@ pub use inputs::{
     auto_warmup, AttributeChoice, AttributeSource, InputFrames, ParticleFrame, ParticleInput,
     WARMUP_AUTO_FACTOR,
 };
+pub use level_set_run::{LevelSetPlan, LevelSetRun, LevelSetSource};
 pub use level_sets::{
     background_outside, check_transform, check_usable, dense_grid, not_finite, target_from_grid,
     TargetRead, TargetUnits,
@@ -40,7 +42,7 @@ pub use stream::{
 };
 #[cfg(feature = "vdb")]
 pub use targets::{
-    read_level_set_frame, read_target, read_target_in, ScaleEstimate, VelocityInput,
+    read_level_set_frame, read_target, read_target_in, LevelSetFiles, ScaleEstimate, VelocityInput,
     VelocitySource, VELOCITY_NAMES,
 };
 

@@ -4,10 +4,10 @@
 use activeskin::field::Field;
 use std::path::PathBuf;
 
-use activeskin::flow::{Flow, Timing};
+use activeskin::flow::Timing;
 use activeskin::frames::{
-    self, read_target_in, FrameError, FrameInput, InputFrames, OutputSpec, Outputs, ScaleEstimate,
-    TargetRead, TargetUnits, VelocityInput, VelocitySource,
+    self, FrameError, FrameInput, InputFrames, LevelSetFiles, LevelSetPlan, LevelSetRun,
+    OutputSpec, Outputs, ScaleEstimate, TargetUnits, VelocityInput, VelocitySource,
 };
 use activeskin::sequence::{parse_range, FramePattern};
 use activeskin::skin::AnySkin;
@@ -232,59 +232,26 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
         None
     };
     let quiet = args.outputs.quiet;
-    let units = TargetUnits::from(args.target_units);
-    let read = |path: &std::path::Path| read_target_in(path, args.grid.as_deref(), args.iso, units);
-    let mut noted = false;
-    let mut units_noted = false;
-    let input_at = |frame: i64| -> Result<FrameInput, FrameError> {
-        let path = input.file(frame, args.hold_missing)?;
-        let TargetRead { target, note, .. } = read(&path)?;
-        // Said once: every frame of a cache is in the same units.
-        if let Some(line) = note.filter(|_| !units_noted && !quiet) {
-            super::note(&line);
-            units_noted = true;
-        }
-        let mut note = |line: String| {
-            if !noted && !quiet {
+    let files = LevelSetFiles {
+        input: &input,
+        grid: args.grid.as_deref(),
+        iso: args.iso,
+        units: args.target_units.into(),
+        hold_missing: args.hold_missing,
+        velocity: &velocity,
+        fps: args.physics.fps,
+        init: args.init.as_deref(),
+        note: Box::new(|line: String| {
+            if !quiet {
                 super::note(&line);
             }
-            noted = true;
-        };
-        let flow = velocity.flow(&path, frame, 1.0 / args.physics.fps, &mut note)?;
-        Ok(FrameInput {
-            target,
-            flow: flow.map(|f| Box::new(f) as Box<dyn Flow>),
-            carried: None,
-            seed: true,
-            volume: None,
-            attributes: None,
-        })
+        }),
+        noted: (false, false),
     };
-    let first_file = input.file(range.0, args.hold_missing)?;
-    // A velocity grid named on the command line is looked for on the first frame, not
-    // first missed on the second.
-    if let VelocitySource::Named(_) = velocity.source {
-        velocity.grid(&first_file, range.0, &mut |_| {})?;
-    }
-    let TargetRead {
-        target: first_target,
-        dx,
-        ..
-    } = read(&first_file)?;
-    let params = args.physics.params(dx)?;
-    let skin = match &args.init {
-        Some(path) => {
-            let has_grid = |name: &&str| {
-                activeskin::vdb::grid_types(path)
-                    .is_ok_and(|grids| grids.iter().any(|(g, _)| g == name))
-            };
-            let grid = args.grid.as_deref().filter(has_grid);
-            let init = read_target_in(path, grid, None, units)?.target;
-            AnySkin::try_new(&*init, params)?
-        }
-        None => AnySkin::try_new(&*first_target, params)?,
-    };
-    drop(first_target);
+    // Before the first frame's velocity is extended over a frame of 1/fps seconds.
+    frames::check_fps(args.physics.fps)?;
+    let run = LevelSetRun::start(files, range.0)?;
+    let params = args.physics.params(run.voxel_size())?;
     let mut spec = args.outputs.spec()?;
     spec.reads = std::iter::once(input.pattern.clone())
         .chain(velocity.files.clone())
@@ -299,12 +266,12 @@ pub fn run(args: &SkinArgs) -> anyhow::Result<()> {
             .insert("velocity_scale".into(), estimate.to_json());
     }
     let mut outputs = Outputs::new(&spec, (write_from, range.1))?;
-    Ok(frames::run(
+    let plan = LevelSetPlan {
         range,
         write_from,
-        skin,
-        (args.physics.fps, velocity_timing(args, estimate.as_ref())),
-        &mut outputs,
-        (true, input_at),
-    )?)
+        fps: args.physics.fps,
+        timing: velocity_timing(args, estimate.as_ref()),
+        seed: true,
+    };
+    Ok(run.run(params, &plan, &mut outputs)?)
 }

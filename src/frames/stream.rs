@@ -14,14 +14,14 @@ use std::time::Duration;
 use glam::Vec3;
 
 use super::{
-    target_from_grid, FrameError, FrameInput, InputFrames, OutputSpec, Outputs, ParticleInput,
-    ParticleRun, ParticleSource, Surface, SurfaceSink, TargetRead, TargetUnits, VoxelVelocities,
+    target_from_grid, FrameError, InputFrames, OutputSpec, Outputs, ParticleInput, ParticleRun,
+    ParticleSource, Surface, SurfaceSink, TargetRead, TargetUnits, VoxelVelocities,
 };
-use crate::flow::{Flow, GridFlow, Timing};
+use crate::flow::{GridFlow, Timing};
 use crate::mesh::Mesh;
 use crate::particles::{Attribute, Particles};
 use crate::sequence::FramePattern;
-use crate::skin::{AnySkin, Physics, SkinParams, StepStats};
+use crate::skin::{Physics, SkinParams, StepStats};
 use crate::volume::{GridData, VectorGrid};
 
 /// One frame's surface, owned: what the outputs were handed.
@@ -349,17 +349,45 @@ fn run_level_sets(
     handed: Receiver<LevelSetFrame>,
     sink: SurfaceSink,
 ) -> Result<(), FrameError> {
-    let next = move || {
-        handed
-            .recv()
-            .map_err(|_| FrameError::Data("no more frames".into()))
+    let first = spec.first_frame;
+    let source = HandedLevelSets {
+        handed,
+        first: None,
+        first_number: first,
+        init: spec.init.clone(),
+        spec: &spec,
     };
-    let fps = spec.fps;
-    let read = |frame: LevelSetFrame| -> Result<(TargetRead, Option<GridFlow>), FrameError> {
+    let run = super::LevelSetRun::start(source, first)?;
+    let params = spec.physics.params(run.voxel_size());
+    params.check()?;
+    let mut outputs = sink_outputs(sink, spec.velocities, first)?;
+    let plan = super::LevelSetPlan {
+        range: (first, i64::MAX),
+        write_from: first,
+        fps: spec.fps,
+        timing: spec.timing,
+        seed: spec.seed,
+    };
+    run.run(params, &plan, &mut outputs)
+}
+
+/// Level sets handed over one frame at a time.
+struct HandedLevelSets<'a> {
+    handed: Receiver<LevelSetFrame>,
+    /// The first frame, kept: the run asks for it once or twice.
+    first: Option<LevelSetFrame>,
+    first_number: i64,
+    init: Option<LevelSetFrame>,
+    spec: &'a LevelSetSpec,
+}
+
+impl HandedLevelSets<'_> {
+    fn read(&self, frame: LevelSetFrame) -> Result<(TargetRead, Option<GridFlow>), FrameError> {
+        let spec = self.spec;
         let flow = frame
             .velocity
             .map(|v| {
-                GridFlow::new(&v, spec.velocity_scale, 1.0 / fps).map_err(|source| {
+                GridFlow::new(&v, spec.velocity_scale, 1.0 / spec.fps).map_err(|source| {
                     FrameError::Velocity {
                         path: frame.label.clone(),
                         source,
@@ -369,38 +397,38 @@ fn run_level_sets(
             .transpose()?;
         let target = target_from_grid(&frame.label, frame.grid, spec.iso, spec.units)?;
         Ok((target, flow))
-    };
-    let input = |(target, flow): (TargetRead, Option<GridFlow>)| FrameInput {
-        target: target.target,
-        flow: flow.map(|f| Box::new(f) as Box<dyn Flow>),
-        carried: None,
-        seed: spec.seed,
-        volume: None,
-        attributes: None,
-    };
-    let first = spec.first_frame;
-    // Kept to be read again: the loop asks for the first frame once or twice.
-    let first_target = next()?;
-    let (target, _) = read(first_target.clone())?;
-    let params = spec.physics.params(target.dx);
-    params.check()?;
-    let skin = match spec.init.clone() {
-        Some(init) => AnySkin::try_new(&*read(init)?.0.target, params)?,
-        None => AnySkin::try_new(&*target.target, params)?,
-    };
-    drop(target);
-    let mut outputs = sink_outputs(sink, spec.velocities, first)?;
-    super::run(
-        (first, i64::MAX),
-        first,
-        skin,
-        (fps, spec.timing),
-        &mut outputs,
-        // Not read ahead: the caller hands the next frame once it has this one's
-        // surface. (Moved in: the loop's input is Send, the receiver is not Sync.)
-        (false, move |frame| match frame == first {
-            true => read(first_target.clone()).map(input),
-            false => read(next()?).map(input),
-        }),
-    )
+    }
+
+    fn next(&self) -> Result<LevelSetFrame, FrameError> {
+        self.handed
+            .recv()
+            .map_err(|_| FrameError::Data("no more frames".into()))
+    }
+}
+
+impl super::LevelSetSource for HandedLevelSets<'_> {
+    fn frame(&mut self, frame: i64) -> Result<(TargetRead, Option<GridFlow>), FrameError> {
+        if frame != self.first_number {
+            let next = self.next()?;
+            return self.read(next);
+        }
+        let first = match self.first.take() {
+            Some(first) => first,
+            None => self.next()?,
+        };
+        self.first = Some(first.clone());
+        self.read(first)
+    }
+
+    fn init(&mut self) -> Result<Option<TargetRead>, FrameError> {
+        match self.init.take() {
+            Some(init) => self.read(init).map(|(target, _)| Some(target)),
+            None => Ok(None),
+        }
+    }
+
+    /// Not read ahead: the caller hands the next frame once it has this one's surface.
+    fn reads_ahead(&self) -> bool {
+        false
+    }
 }

@@ -37,6 +37,68 @@ pub fn read_target_in(
     target_from_grid(path, data, iso, units)
 }
 
+/// A level-set run's frames read from their files (`skin --target`): each frame's target
+/// ([`read_target_in`]) and velocity ([`VelocityInput::flow`]), the first frame's
+/// velocity grid looked for when one is named; `note` hears, once each, what was done to
+/// the distances and which velocity grid was chosen.
+pub struct LevelSetFiles<'a> {
+    /// The target files and the frames to run.
+    pub input: &'a InputFrames,
+    /// The target grid's name, when given.
+    pub grid: Option<&'a str>,
+    /// The density of a fog volume's surface.
+    pub iso: Option<f32>,
+    /// What the level sets' distances are in.
+    pub units: TargetUnits,
+    /// Keep the last target through missing frames instead of stopping.
+    pub hold_missing: bool,
+    /// Where each frame's velocity comes from.
+    pub velocity: &'a VelocityInput,
+    /// Frames per second (a carry's extent).
+    pub fps: f64,
+    /// The file the skin starts on instead of the first target (its `grid` when it has
+    /// one of that name, else its first float grid).
+    pub init: Option<&'a Path>,
+    /// Hears each note once.
+    pub note: Box<dyn FnMut(String) + Send + 'a>,
+    /// Which notes were said: the units', the velocity's.
+    pub noted: (bool, bool),
+}
+
+impl super::LevelSetSource for LevelSetFiles<'_> {
+    fn frame(&mut self, frame: i64) -> Result<(TargetRead, Option<GridFlow>), FrameError> {
+        let path = self.input.file(frame, self.hold_missing)?;
+        let read = read_target_in(&path, self.grid, self.iso, self.units)?;
+        // Said once: every frame of a cache is in the same units.
+        if let Some(line) = read.note.clone().filter(|_| !self.noted.0) {
+            (self.note)(line);
+            self.noted.0 = true;
+        }
+        let (note, noted) = (&mut self.note, &mut self.noted.1);
+        let mut once = |line: String| {
+            if !*noted {
+                note(line);
+            }
+            *noted = true;
+        };
+        let flow = self
+            .velocity
+            .flow(&path, frame, 1.0 / self.fps, &mut once)?;
+        Ok((read, flow))
+    }
+
+    fn init(&mut self) -> Result<Option<TargetRead>, FrameError> {
+        let Some(path) = self.init else {
+            return Ok(None);
+        };
+        let has_grid = |name: &&str| {
+            vdb::grid_types(path).is_ok_and(|grids| grids.iter().any(|(g, _)| g == name))
+        };
+        let grid = self.grid.filter(has_grid);
+        read_target_in(path, grid, None, self.units).map(Some)
+    }
+}
+
 /// Where a frame's velocity comes from.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum VelocitySource {
