@@ -61,25 +61,10 @@ pub mod validate;
 pub use io::vdb;
 pub mod volume;
 
-/// Every error of the library, one variant per stage.
-#[derive(Debug, thiserror::Error)]
-pub enum Error {
-    #[cfg(feature = "vdb")]
-    #[error(transparent)]
-    Vdb(#[from] vdb::VdbError),
-    #[error(transparent)]
-    Mesh(#[from] io::mesh::MeshError),
-    #[error(transparent)]
-    Skin(#[from] skin::SkinError),
-    #[error(transparent)]
-    Pattern(#[from] sequence::PatternError),
-    #[error(transparent)]
-    Render(#[from] io::image::RenderError),
-    #[error(transparent)]
-    Particles(#[from] io::particles::ParticleError),
-    #[error(transparent)]
-    Write(#[from] io::WriteError),
-}
+/// Every error of the library: the frame loop's, which wraps each stage's (grids, meshes,
+/// skins, patterns, renders, particles, VDB files) with `#[from]`, so that `?` on any
+/// stage's error works in a caller returning this one.
+pub use frames::FrameError as Error;
 
 /// A repeatable pseudo-random source for tests: `below(n)` in 0..n (a 64-bit LCG's high
 /// bits).
