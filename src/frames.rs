@@ -87,12 +87,8 @@ pub enum FrameError {
         source: crate::flow::GridFlowError,
     },
     /// A file that cannot be written.
-    #[error("{}: {source}", path.display())]
-    Write {
-        path: std::path::PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Write(#[from] crate::io::WriteError),
     /// A request that cannot be met whatever the files hold (a command-line mistake).
     #[error("{0}")]
     Usage(String),

@@ -688,9 +688,11 @@ fn write_file(path: &Path, bytes: &[u8]) -> Result<(), FrameError> {
     crate::io::write_atomically(path, |tmp| {
         std::fs::File::create(tmp).and_then(|mut f| f.write_all(bytes))
     })
-    .map_err(|source| FrameError::Write {
-        path: path.to_path_buf(),
-        source,
+    .map_err(|source| {
+        FrameError::Write(crate::io::WriteError {
+            path: path.to_path_buf(),
+            source,
+        })
     })
 }
 
