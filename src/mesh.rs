@@ -84,6 +84,20 @@ impl Mesh {
         partial.iter().sum()
     }
 
+    /// The worst triangle's shape, min over triangles of 4√3·area / Σ edge²: 1 for an
+    /// equilateral triangle, near 0 for a sliver (1 with no triangles).
+    pub fn worst_triangle_quality(&self) -> f32 {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = self.corners(t);
+                let squares =
+                    (b - a).length_squared() + (c - b).length_squared() + (a - c).length_squared();
+                2.0 * 3f32.sqrt() * (b - a).cross(c - a).length() / squares
+            })
+            .fold(1.0, f32::min)
+    }
+
     /// χ = V − E + F over the vertices the triangles use.
     pub fn euler_characteristic(&self) -> i64 {
         let mut used = vec![false; self.positions.len()];

@@ -113,21 +113,10 @@ fn a_disordered_slab_meshes_flat() {
 /// leaves slivers, which shading shows as facets.
 #[test]
 fn a_smoothed_skin_has_no_slivers() {
-    let worst = |mesh: &Mesh| {
-        mesh.triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
-                let squares =
-                    (b - a).length_squared() + (c - b).length_squared() + (a - c).length_squared();
-                2.0 * 3f32.sqrt() * (b - a).cross(c - a).length() / squares
-            })
-            .fold(1.0f32, f32::min)
-    };
     let cells = slab(12, 4);
     let (smoothed, raw) = (
-        worst(&skin(&cells, 4, 0.4, None)),
-        worst(&skin(&cells, 4, 0.4, Some(0.0))),
+        skin(&cells, 4, 0.4, None).worst_triangle_quality(),
+        skin(&cells, 4, 0.4, Some(0.0)).worst_triangle_quality(),
     );
     eprintln!("worst triangle: {smoothed:.3} smoothed, {raw:.3} without");
     assert!(

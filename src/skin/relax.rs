@@ -130,20 +130,6 @@ mod tests {
     use super::*;
     use crate::target::{sample, Sphere, Target};
 
-    /// Minimum over triangles of 4√3·area / Σ edge²: 1 for an equilateral triangle,
-    /// near 0 for a sliver.
-    fn worst_quality(mesh: &crate::mesh::Mesh) -> f32 {
-        mesh.triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
-                let squares =
-                    (b - a).length_squared() + (c - b).length_squared() + (a - c).length_squared();
-                2.0 * 3f32.sqrt() * (b - a).cross(c - a).length() / squares
-            })
-            .fold(1.0, f32::min)
-    }
-
     #[test]
     fn a_sphere_keeps_its_surface_and_loses_its_slivers_and_facets() {
         let dx = 0.05;
@@ -188,7 +174,10 @@ mod tests {
         assert_eq!(mesh.triangles, before.triangles);
         assert_eq!(mesh.euler_characteristic(), 2);
         // The slivers go, and with them most of the facets' turning.
-        let (q0, q1) = (worst_quality(&before), worst_quality(&mesh));
+        let (q0, q1) = (
+            before.worst_triangle_quality(),
+            mesh.worst_triangle_quality(),
+        );
         assert!(q0 < 0.05 && q1 > 0.3, "worst triangle {q0} -> {q1}");
         let radius = dx; // bumps measured over 3 voxels
         let (b0, b1) = (
