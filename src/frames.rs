@@ -17,6 +17,7 @@ pub mod scale;
 mod stream;
 #[cfg(feature = "vdb")]
 mod targets;
+mod usage;
 
 use std::time::Instant;
 
@@ -45,6 +46,7 @@ pub use targets::{
     read_level_set_frame, read_target, read_target_in, LevelSetFiles, ScaleEstimate, VelocityInput,
     VelocitySource, VELOCITY_NAMES,
 };
+pub use usage::UsageError;
 
 use rayon::prelude::*;
 
@@ -90,8 +92,8 @@ pub enum FrameError {
     #[error(transparent)]
     Write(#[from] crate::io::WriteError),
     /// A request that cannot be met whatever the files hold (a command-line mistake).
-    #[error("{0}")]
-    Usage(String),
+    #[error(transparent)]
+    Usage(#[from] UsageError),
     /// Work that would take more memory than the budget ([`crate::budget`]), refused
     /// before allocating it.
     #[error("{0}")]
@@ -103,14 +105,7 @@ pub const DEFAULT_FPS: f64 = 24.0;
 
 /// A frame rate a run can advance by: finite and positive.
 pub fn check_fps(fps: f64) -> Result<(), FrameError> {
-    if fps.is_finite() && fps > 0.0 {
-        Ok(())
-    } else {
-        Err(FrameError::Usage(format!(
-            "{} must be a positive number, got {fps}",
-            crate::field::Field::Fps
-        )))
-    }
+    Ok(usage::positive(crate::field::Field::Fps, fps)?)
 }
 
 /// What one frame brings: its target and, when known, the material's velocity then.

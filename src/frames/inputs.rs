@@ -1,5 +1,6 @@
 //! A frame's inputs: sequences found on disk, and particle frames read and checked.
 
+use super::UsageError;
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
@@ -63,18 +64,16 @@ impl InputFrames {
     /// given (a static target: a shape to smooth with tension, a morph's end).
     pub fn find(flag: Field, spec: &str, frames: Option<(i64, i64)>) -> Result<Self, FrameError> {
         if let Some((a, b)) = frames.filter(|(a, b)| a > b) {
-            return Err(FrameError::Usage(format!(
-                "{} {a}-{b} is empty: the first frame comes after the last",
-                Field::Frames
-            )));
+            return Err(UsageError::EmptyRange { first: a, last: b }.into());
         }
         let pattern = match FramePattern::parse(spec) {
             Err(PatternError::NoFrameNumber(_)) if Path::new(spec).is_file() => {
                 let Some((a, b)) = frames else {
-                    return Err(FrameError::Usage(format!(
-                        "{flag} '{spec}' is one file, not a sequence: give {} FIRST-LAST to hold it that long",
-                        Field::Frames
-                    )));
+                    return Err(UsageError::OneFile {
+                        field: flag,
+                        spec: spec.into(),
+                    }
+                    .into());
                 };
                 return Ok(InputFrames {
                     pattern: FramePattern::held(spec),
@@ -86,11 +85,13 @@ impl InputFrames {
                 if let Some(why) = crate::io::not_a_file(Path::new(spec)) {
                     return Err(FrameError::Data(format!("{spec}: {why}")));
                 }
-                return Err(FrameError::Usage(format!(
-                    "{flag} '{spec}': no such file, and no frame number for a sequence (use ####, %04d, $F4, $F or {{}})"
-                )));
+                return Err(UsageError::NotASequence {
+                    field: flag,
+                    spec: spec.into(),
+                }
+                .into());
             }
-            other => other.map_err(|e| FrameError::Usage(e.to_string()))?,
+            other => other.map_err(UsageError::Pattern)?,
         };
         // Said with the pattern as the user spelled it.
         let existing = pattern.existing_frames().map_err(|e| match e {
@@ -103,9 +104,11 @@ impl InputFrames {
             (Some(range), _, _) => range,
             (None, Some(&a), Some(&b)) => (a, b),
             _ => {
-                return Err(FrameError::Usage(format!(
-                    "no file matches {flag} '{spec}'"
-                )))
+                return Err(UsageError::NoMatch {
+                    field: flag,
+                    spec: spec.into(),
+                }
+                .into())
             }
         };
         Ok(InputFrames {
@@ -165,7 +168,7 @@ pub struct ParticleInput {
 }
 
 /// The largest radius or voxel size a particle run takes, in world units.
-const MAX_LENGTH: f32 = 1e15;
+pub(super) const MAX_LENGTH: f32 = 1e15;
 
 impl ParticleInput {
     /// Particles of `radius` at the defaults: smoothing length
@@ -248,48 +251,44 @@ impl ParticleInput {
     /// the skin takes the shape of the voxels (a ball of radius 0.1 at `--voxel-size
     /// 1e4` became a blob of 6·10¹⁰ m³).
     pub fn check(&self) -> Result<(), FrameError> {
-        let positive = |name: Field, v: f32| match v.is_finite() && v > 0.0 {
-            true => Ok(()),
-            false => Err(FrameError::Usage(format!(
-                "{name} must be a positive number, got {v}"
-            ))),
-        };
+        let positive = |field: Field, v: f32| super::usage::positive(field, f64::from(v));
         positive(Field::Radius, self.radius)?;
         positive(Field::SmoothingLength, self.smoothing_length)?;
         // Before the iso, which is NaN past it.
         if self.smoothing_length > MAX_SMOOTHING_LENGTH {
-            return Err(FrameError::Usage(format!(
-                "{} {} is beyond {MAX_SMOOTHING_LENGTH} radii (some 17 000 neighbours a particle)",
-                Field::SmoothingLength,
-                self.smoothing_length
-            )));
+            return Err(UsageError::SmoothingTooLong {
+                value: self.smoothing_length,
+            }
+            .into());
         }
         positive(Field::Iso, self.iso)?;
         positive(Field::VoxelSize, self.dx)?;
         // Areas and tensions (β ∝ Δx²) must stay finite in 32-bit floats.
-        for (name, v) in [(Field::Radius, self.radius), (Field::VoxelSize, self.dx)] {
-            if v > MAX_LENGTH {
-                return Err(FrameError::Usage(format!(
-                    "{name} {v} is beyond {MAX_LENGTH:e} world units: 32-bit floats cannot hold the areas of such voxels"
-                )));
+        for (field, value) in [(Field::Radius, self.radius), (Field::VoxelSize, self.dx)] {
+            if value > MAX_LENGTH {
+                return Err(UsageError::TooLong { field, value }.into());
             }
         }
         if let Some(k) = self.velocity_scale.filter(|k| !k.is_finite()) {
-            return Err(FrameError::Usage(format!(
-                "{} must be a number, got {k}",
-                Field::VelocityScale
-            )));
+            return Err(UsageError::NotANumber {
+                field: Field::VelocityScale,
+                value: f64::from(k),
+            }
+            .into());
         }
         if cfg!(not(feature = "vdb")) && self.density_out.is_some() {
-            return Err(FrameError::Usage(format!("{} writes VDB fog volumes: this activeskin was built without OpenVDB (the `vdb` feature)", Field::DensityOut)));
+            return Err(UsageError::FogWithoutVdb {
+                field: Field::DensityOut,
+            }
+            .into());
         }
         let support = 2.0 * self.smoothing_length * self.radius;
         if self.dx > support {
-            return Err(FrameError::Usage(format!(
-                "{} {} is coarser than the particles' kernel (support {support}): at most that; the default, radius/2, resolves them",
-                Field::VoxelSize,
-                self.dx
-            )));
+            return Err(UsageError::CoarserThanKernel {
+                voxel: self.dx,
+                support,
+            }
+            .into());
         }
         Ok(())
     }
@@ -330,11 +329,12 @@ impl ParticleInput {
         let reach = REACH_VOXELS * self.dx;
         let far = cloud.keep_within(reach);
         if far > 0 && cloud.positions.is_empty() {
-            return Err(FrameError::Usage(format!(
-                "{}: every particle lies more than {reach} from the origin, where 32-bit coordinates do not resolve voxels of {}: give a larger voxel size",
-                path.display(),
-                self.dx
-            )));
+            return Err(UsageError::FarFromOrigin {
+                path: path.into(),
+                reach,
+                voxel: self.dx,
+            }
+            .into());
         }
         // Copied only when it has some to leave out.
         let before: Option<Cow<Particles>> = before.map(|b| match b.within(reach) {

@@ -3,6 +3,7 @@
 //! ([`super::read_target_in`]) and a dense array handed over by the Python API go through
 //! the same steps, so both give the same skin.
 
+use super::UsageError;
 use std::path::Path;
 
 use rayon::prelude::*;
@@ -53,18 +54,18 @@ pub fn target_from_grid(
         (GridClass::LevelSet, _) => Box::new(LevelSetTarget::new(&data)),
         (_, Some(iso)) if iso.is_finite() => Box::new(FogTarget::new(&data, iso)),
         (_, Some(iso)) => {
-            return Err(FrameError::Usage(format!(
-                "{} must be a number, got {iso}",
-                Field::Iso
-            )))
+            return Err(UsageError::NotANumber {
+                field: Field::Iso,
+                value: f64::from(iso),
+            }
+            .into())
         }
         (_, None) => {
-            return Err(FrameError::Usage(format!(
-                "{}: grid '{}' is not a level set: give {}, the density of its surface",
-                path.display(),
-                data.name,
-                Field::Iso
-            )))
+            return Err(UsageError::NotALevelSet {
+                path: path.into(),
+                grid: data.name.clone(),
+            }
+            .into())
         }
     };
     Ok(TargetRead { target, dx, note })
@@ -212,17 +213,14 @@ pub fn dense_grid(
 ) -> Result<GridData, FrameError> {
     let voxels: usize = dims.iter().product();
     if values.len() != voxels || voxels == 0 {
-        return Err(FrameError::Usage(format!(
-            "a grid of {dims:?} voxels needs {voxels} values, got {}",
-            values.len()
-        )));
+        return Err(UsageError::GridValues {
+            dims,
+            voxels,
+            got: values.len(),
+        }
+        .into());
     }
-    if !(spacing.is_finite() && spacing > 0.0) {
-        return Err(FrameError::Usage(format!(
-            "{} must be a positive number, got {spacing}",
-            Field::Spacing
-        )));
-    }
+    super::usage::positive(Field::Spacing, f64::from(spacing))?;
     let (name, outside) = match class {
         GridClass::LevelSet => (
             "phi",

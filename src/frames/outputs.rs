@@ -1,6 +1,7 @@
 //! What a frame writes: the skin VDB, the mesh, a render, a stats line, progress. Each
 //! file is written under a temporary name and renamed.
 
+use super::UsageError;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -175,7 +176,6 @@ impl Outputs {
     /// the temporary files a killed run left there for those frames (only those: farm
     /// chunks writing other frames into the same folders may be running).
     pub fn new(spec: &OutputSpec, (first, last): (i64, i64)) -> Result<Self, FrameError> {
-        let usage = |m: String| Err(FrameError::Usage(m));
         if let Some(out) = &spec.out {
             require_extension(Field::Out, out, "skin level sets (VDB)", &["vdb"])?;
         }
@@ -206,28 +206,13 @@ impl Outputs {
             && usd.is_none()
             && spec.surfaces.is_none();
         if nothing && spec.stats.is_none() {
-            return usage(format!(
-                "nothing to write: give {}, {}, {}, {} or {}",
-                Field::Out,
-                Field::Mesh,
-                Field::Usd,
-                Field::Render,
-                Field::Stats
-            ));
+            return Err(UsageError::NothingToWrite.into());
         }
         if cfg!(not(feature = "vdb")) && out.is_some() {
-            return usage(format!(
-                "{} writes VDB files: this activeskin was built without OpenVDB (the `vdb` feature); write {} instead",
-                Field::Out,
-                Field::Mesh
-            ));
+            return Err(UsageError::SkinWithoutVdb.into());
         }
         if spec.resume && out.is_none() {
-            return usage(format!(
-                "{} needs {}: it continues from the last skin VDB written there",
-                Field::Resume,
-                Field::Out
-            ));
+            return Err(UsageError::ResumeWithoutOut.into());
         }
         check_apart(spec, (first, last))?;
         let usd_frames = usd.as_ref().map(|(_, shot)| shot.frame_pattern());
@@ -487,9 +472,7 @@ pub fn write_usd_frame(
     values: crate::io::mesh::VertexValues,
 ) -> Result<(), FrameError> {
     if let Some((first, last)) = spec.shot.filter(|&(a, b)| !(a..=b).contains(&frame)) {
-        return Err(FrameError::Usage(format!(
-            "frame {frame} is not one of the shot's frames, {first}-{last}"
-        )));
+        return Err(UsageError::FrameOutsideShot { frame, first, last }.into());
     }
     super::check_fps(fps)?;
     let (_, mut shot) = shot_of(spec, (frame, frame))?;
@@ -511,47 +494,34 @@ fn create_folder(folder: &Path) -> Result<(), FrameError> {
 
 /// The USD shot asked for, checked, over the frames `written` unless it says whose.
 fn shot_of(spec: &UsdSpec, written: (i64, i64)) -> Result<(UsdSpec, usd::Shot), FrameError> {
-    let usage = |m: String| Err(FrameError::Usage(m));
     let stage = &spec.stage;
     let name = stage.file_name().map(|n| n.to_string_lossy().into_owned());
     if crate::io::has_extension(stage, &["usdc", "usdz"]) {
-        return usage(format!(
-            "{} '{}': activeskin writes USD as text, name the stage .usda or .usd (Pixar's usdcat turns it into .usdc)",
-            Field::Usd,
-            stage.display()
-        ));
+        return Err(UsageError::UsdBinary {
+            stage: stage.clone(),
+        }
+        .into());
     }
     if !crate::io::has_extension(stage, usd::EXTENSIONS) {
-        return usage(format!(
-            "{} '{}': a USD stage must end in .usda or .usd",
-            Field::Usd,
-            stage.display()
-        ));
+        return Err(UsageError::UsdExtension {
+            stage: stage.clone(),
+        }
+        .into());
     }
     if name.is_some_and(|n| n.contains(['@', '"', '#', '%', '$', '\\'])) {
-        return usage(format!(
-            "{} '{}': the stage's name cannot hold @ \" # % $ or \\ (its frames' layers are named after it)",
-            Field::Usd,
-            stage.display()
-        ));
+        return Err(UsageError::UsdName {
+            stage: stage.clone(),
+        }
+        .into());
     }
-    if !(spec.meters_per_unit.is_finite() && spec.meters_per_unit > 0.0) {
-        return usage(format!(
-            "{} must be a positive number, got {}",
-            Field::MetersPerUnit,
-            spec.meters_per_unit
-        ));
-    }
+    super::usage::positive(Field::MetersPerUnit, spec.meters_per_unit)?;
     let frames = spec.shot.unwrap_or(written);
     if frames.0 > written.0 || frames.1 < written.1 {
-        return usage(format!(
-            "{} {}-{} must hold the frames written, {}-{}",
-            Field::ShotFrames,
-            frames.0,
-            frames.1,
-            written.0,
-            written.1
-        ));
+        return Err(UsageError::ShotTooShort {
+            shot: frames,
+            written,
+        }
+        .into());
     }
     let spec = UsdSpec {
         shot: Some(frames),
@@ -611,16 +581,19 @@ fn check_apart(spec: &OutputSpec, (first, last): (i64, i64)) -> Result<(), Frame
             // Lexically too: `new/../input` names the input once `new` is created.
             let id = file_id(&path).or_else(|| file_id(&lexical(&path)));
             if let Some(input) = id.and_then(|id| read.get(&id)) {
-                return Err(FrameError::Usage(format!(
-                    "{flag} would overwrite the input {}: write elsewhere",
-                    input.display()
-                )));
+                return Err(UsageError::OverwritesInput {
+                    field: flag,
+                    input: input.clone(),
+                }
+                .into());
             }
             if let Some(other) = written.insert(lexical(&path), flag) {
-                return Err(FrameError::Usage(format!(
-                    "{other} and {flag} would both write {}",
-                    path.display()
-                )));
+                return Err(UsageError::SameOutput {
+                    first: other,
+                    second: flag,
+                    path,
+                }
+                .into());
             }
         }
     }
@@ -700,14 +673,17 @@ fn write_file(path: &Path, bytes: &[u8]) -> Result<(), FrameError> {
 fn require_extension(
     flag: Field,
     pattern: &FramePattern,
-    what: &str,
-    extensions: &[&str],
+    what: &'static str,
+    extensions: &[&'static str],
 ) -> Result<(), FrameError> {
     if !crate::io::has_extension(&pattern.path(0), extensions) {
-        return Err(FrameError::Usage(format!(
-            "{flag} '{pattern}': {what} must end in .{}",
-            extensions.join(" or .")
-        )));
+        return Err(UsageError::Extension {
+            field: flag,
+            pattern: pattern.clone(),
+            what,
+            extensions: extensions.to_vec(),
+        }
+        .into());
     }
     Ok(())
 }

@@ -5,6 +5,7 @@
 //! volumes through `skin`'s and `morph`'s ([`LevelSetStream`]). Same inputs and
 //! parameters, same surfaces as the commands, byte for byte.
 
+use super::UsageError;
 use std::path::PathBuf;
 use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender};
 use std::sync::Arc;
@@ -120,10 +121,11 @@ impl FrameStream<Particles> {
         super::check_fps(spec.fps)?;
         if let Some((f, _)) = &spec.reference {
             if *f >= spec.first_frame {
-                return Err(FrameError::Usage(format!(
-                    "the volume's reference frame {f} must come before the first frame, {}",
-                    spec.first_frame
-                )));
+                return Err(UsageError::ReferenceAfterFirst {
+                    reference: *f,
+                    first: spec.first_frame,
+                }
+                .into());
             }
         }
         spec.params.check()?;
@@ -327,11 +329,11 @@ impl FrameStream<LevelSetFrame> {
     pub fn start(spec: LevelSetSpec) -> Result<Self, FrameError> {
         super::check_fps(spec.fps)?;
         if !spec.velocity_scale.is_finite() {
-            return Err(FrameError::Usage(format!(
-                "{} must be a number, got {}",
-                crate::field::Field::VelocityScale,
-                spec.velocity_scale
-            )));
+            return Err(UsageError::NotANumber {
+                field: crate::field::Field::VelocityScale,
+                value: f64::from(spec.velocity_scale),
+            }
+            .into());
         }
         // Checked now, on any voxel size, so that a bad α fails here, not at frame 1.
         spec.physics
