@@ -8,6 +8,7 @@
 //! run resumed from a written frame, or a farm chunk started from one, repeats an
 //! uninterrupted run bit for bit.
 
+mod data;
 mod inputs;
 mod level_set_run;
 mod level_sets;
@@ -21,6 +22,7 @@ mod usage;
 
 use std::time::Instant;
 
+pub use data::DataError;
 pub use inputs::{
     auto_warmup, AttributeChoice, AttributeSource, InputFrames, ParticleFrame, ParticleInput,
     WARMUP_AUTO_FACTOR,
@@ -79,8 +81,8 @@ pub enum FrameError {
     #[error(transparent)]
     Pattern(#[from] PatternError),
     /// An input that cannot be used, or an output that cannot be written.
-    #[error("{0}")]
-    Data(String),
+    #[error(transparent)]
+    Data(#[from] DataError),
     /// A velocity grid that cannot carry the skin.
     #[error("{}: {source}", path.display())]
     Velocity {
@@ -337,14 +339,12 @@ fn resume(
         {
             let data = Grid::read(&path, Some("surface"))
                 .and_then(|g| g.to_data())
-                .map_err(|e| {
-                    FrameError::Data(format!(
-                        "{e}; cannot resume from it, delete it to recompute that frame"
-                    ))
+                .map_err(|source| DataError::ResumeUnreadable { source })?;
+            skin.restore(&data)
+                .map_err(|source| DataError::ResumeIncompatible {
+                    path: path.clone(),
+                    source,
                 })?;
-            skin.restore(&data).map_err(|e| {
-                FrameError::Data(format!("{}: cannot resume from it: {e}", path.display()))
-            })?;
             skin.set_time((frame - first) as f64 / fps);
             outputs.resume_stats(frame + 1)?;
             outputs.skip((frame - write_from.max(first) + 1) as u64);
@@ -386,9 +386,13 @@ fn advance_frame<'t>(
         }
     };
     if let Some(stopped) = stepped.stopped {
-        return Err(FrameError::Data(format!(
-            "frame {frame} ({duration:.3e} s at {fps} fps) {stopped}"
-        )));
+        return Err(DataError::TooManySubsteps {
+            frame,
+            duration,
+            fps,
+            stopped,
+        }
+        .into());
     }
     if input.seed {
         skin.seed(&*input.target);

@@ -1,12 +1,11 @@
 //! A frame's inputs: sequences found on disk, and particle frames read and checked.
 
-use super::UsageError;
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
-use super::FrameError;
+use super::{DataError, FrameError, UsageError};
 use crate::field::Field;
 use crate::grid::REACH_VOXELS;
 use crate::io::particles;
@@ -83,7 +82,11 @@ impl InputFrames {
             }
             Err(PatternError::NoFrameNumber(_)) => {
                 if let Some(why) = crate::io::not_a_file(Path::new(spec)) {
-                    return Err(FrameError::Data(format!("{spec}: {why}")));
+                    return Err(DataError::NotAFile {
+                        path: spec.into(),
+                        why,
+                    }
+                    .into());
                 }
                 return Err(UsageError::NotASequence {
                     field: flag,
@@ -95,9 +98,11 @@ impl InputFrames {
         };
         // Said with the pattern as the user spelled it.
         let existing = pattern.existing_frames().map_err(|e| match e {
-            PatternError::Unreadable { reason, .. } => FrameError::Data(format!(
-                "cannot list the folder of {flag} '{spec}': {reason}"
-            )),
+            PatternError::Unreadable { reason, .. } => FrameError::from(DataError::Unlistable {
+                field: flag,
+                spec: spec.into(),
+                reason,
+            }),
             other => other.into(),
         })?;
         let range = match (frames, existing.first(), existing.last()) {
@@ -126,20 +131,15 @@ impl InputFrames {
         }
         // There but not a file: an error, never a missing frame to hold over.
         if let Some(why) = crate::io::not_a_file(&path) {
-            return Err(FrameError::Data(format!("{}: {why}", path.display())));
+            return Err(DataError::NotAFile { path, why }.into());
         }
         let held = self.existing.iter().rev().find(|&&f| f < frame);
-        Err(FrameError::Data(match held {
+        Err(match held {
             Some(&f) if hold_missing => return Ok(self.pattern.path(f)),
-            _ if hold_missing => {
-                format!("{}: missing, and no earlier target to hold", path.display())
-            }
-            _ => format!(
-                "{}: frame {frame} of the target is missing ({} keeps the last target)",
-                path.display(),
-                Field::HoldMissing
-            ),
-        }))
+            _ if hold_missing => DataError::NothingToHold { path },
+            _ => DataError::MissingTarget { path, frame },
+        }
+        .into())
     }
 }
 
@@ -432,18 +432,12 @@ impl ParticleInput {
             match held.iter().find(|a| a.name == *name) {
                 Some(a) => chosen.push(a.clone()),
                 None => {
-                    let listed: Vec<&str> = held.iter().map(|a| a.name.as_str()).collect();
-                    return Err(FrameError::Data(format!(
-                        "{}: no particle attribute '{}' ({})",
-                        path.display(),
-                        crate::io::printable(name, 80),
-                        match listed.is_empty() {
-                            true =>
-                                "the file has none besides positions, radii, velocities and ids"
-                                    .to_string(),
-                            false => format!("attributes: {}", listed.join(", ")),
-                        }
-                    )));
+                    return Err(DataError::NoAttribute {
+                        path: path.into(),
+                        name: name.clone(),
+                        listed: held.iter().map(|a| a.name.clone()).collect(),
+                    }
+                    .into());
                 }
             }
         }

@@ -3,12 +3,11 @@
 //! ([`super::read_target_in`]) and a dense array handed over by the Python API go through
 //! the same steps, so both give the same skin.
 
-use super::UsageError;
 use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::FrameError;
+use super::{DataError, FrameError, UsageError};
 use crate::field::Field;
 use crate::target::{FogTarget, LevelSetTarget, Target};
 use crate::volume::{units, GridClass, GridData, Transform};
@@ -165,11 +164,11 @@ pub fn check_usable(path: &Path, data: &GridData) -> Result<(), FrameError> {
 /// cubic voxels, and leaves near enough the origin for 32-bit positions to resolve them.
 pub fn check_transform(path: &Path, data: &GridData) -> Result<(), FrameError> {
     if !data.uniform_linear {
-        return Err(FrameError::Data(format!(
-            "{}: grid '{}' has a non-uniform or non-linear transform; resample it to cubic voxels",
-            path.display(),
-            data.name
-        )));
+        return Err(DataError::NonUniform {
+            path: path.into(),
+            grid: data.name.clone(),
+        }
+        .into());
     }
     let dx = data.transform.voxel_size();
     let farthest = data
@@ -181,23 +180,24 @@ pub fn check_transform(path: &Path, data: &GridData) -> Result<(), FrameError> {
         .flat_map(|p| p.map(f64::abs))
         .fold(0.0, f64::max);
     if farthest / dx > f64::from(crate::grid::REACH_VOXELS) {
-        return Err(FrameError::Data(format!(
-            "{}: grid '{}' lies {farthest:.4e} from the origin, {:.2e} voxels of {dx:.3e}: past 2^20 voxels, 32-bit positions do not resolve a voxel; move it nearer the origin or use larger voxels",
-            path.display(),
-            data.name,
-            farthest / dx
-        )));
+        return Err(DataError::FarFromOrigin {
+            path: path.into(),
+            grid: data.name.clone(),
+            farthest,
+            dx,
+        }
+        .into());
     }
     Ok(())
 }
 
 /// The error of a grid holding a value that is not a finite number.
 pub fn not_finite(path: &Path, data: &GridData) -> FrameError {
-    FrameError::Data(format!(
-        "{}: grid '{}' holds NaN or infinite values",
-        path.display(),
-        data.name
-    ))
+    DataError::NotFinite {
+        path: path.into(),
+        grid: data.name.clone(),
+    }
+    .into()
 }
 
 /// A dense block of values (C order: `values[(i·ny + j)·nz + k]` at voxel (i, j, k)), as a

@@ -1,7 +1,6 @@
 //! What a frame writes: the skin VDB, the mesh, a render, a stats line, progress. Each
 //! file is written under a temporary name and renamed.
 
-use super::UsageError;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -9,7 +8,7 @@ use std::time::Instant;
 
 use hashbrown::HashMap;
 
-use super::FrameError;
+use super::{DataError, FrameError, UsageError};
 use crate::field::Field;
 use crate::grid::Aabb;
 use crate::io::usd;
@@ -438,12 +437,8 @@ impl Outputs {
             return Ok(());
         };
         for line in old.lines() {
-            let value: serde_json::Value = serde_json::from_str(line).map_err(|_| {
-                FrameError::Data(format!(
-                    "{}: not a stats file (one JSON object per line)",
-                    path.display()
-                ))
-            })?;
+            let value: serde_json::Value = serde_json::from_str(line)
+                .map_err(|_| FrameError::from(DataError::NotStats { path: path.clone() }))?;
             if value["frame"].as_i64().is_some_and(|f| f < frame) {
                 lines.extend_from_slice(line.as_bytes());
                 lines.push(b'\n');
@@ -484,11 +479,12 @@ pub fn write_usd_frame(
 
 /// Makes an output folder (and those above it) when missing.
 fn create_folder(folder: &Path) -> Result<(), FrameError> {
-    std::fs::create_dir_all(folder).map_err(|e| {
-        FrameError::Data(format!(
-            "{}: cannot create the output folder: {e}",
-            folder.display()
-        ))
+    std::fs::create_dir_all(folder).map_err(|source| {
+        DataError::CreateFolder {
+            folder: folder.into(),
+            source,
+        }
+        .into()
     })
 }
 

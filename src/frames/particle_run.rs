@@ -8,8 +8,8 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use super::{
-    AttributeChoice, AttributeSource, FrameError, FrameInput, InputFrames, Outputs, ParticleFrame,
-    ParticleInput,
+    AttributeChoice, AttributeSource, DataError, FrameError, FrameInput, InputFrames, Outputs,
+    ParticleFrame, ParticleInput,
 };
 use crate::flow::{Flow, FlowMap, Timing};
 use crate::io::particles;
@@ -68,11 +68,8 @@ impl ParticleSource for Files<'_> {
         let path = self.0.pattern.path(frame);
         // There but not a file: said so, not called missing.
         match crate::io::not_a_file(&path) {
-            Some(why) => FrameError::Data(format!("{}: {why}", path.display())),
-            None => FrameError::Data(format!(
-                "{}: frame {frame} of the particles is missing",
-                path.display()
-            )),
+            Some(why) => DataError::NotAFile { path, why }.into(),
+            None => DataError::MissingParticles { path, frame }.into(),
         }
     }
 }

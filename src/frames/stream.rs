@@ -5,7 +5,6 @@
 //! volumes through `skin`'s and `morph`'s ([`LevelSetStream`]). Same inputs and
 //! parameters, same surfaces as the commands, byte for byte.
 
-use super::UsageError;
 use std::path::PathBuf;
 use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender};
 use std::sync::Arc;
@@ -15,8 +14,9 @@ use std::time::Duration;
 use glam::Vec3;
 
 use super::{
-    target_from_grid, FrameError, InputFrames, OutputSpec, Outputs, ParticleInput, ParticleRun,
-    ParticleSource, Surface, SurfaceSink, TargetRead, TargetUnits, VoxelVelocities,
+    target_from_grid, DataError, FrameError, InputFrames, OutputSpec, Outputs, ParticleInput,
+    ParticleRun, ParticleSource, Surface, SurfaceSink, TargetRead, TargetUnits, UsageError,
+    VoxelVelocities,
 };
 use crate::flow::{GridFlow, Timing};
 use crate::mesh::Mesh;
@@ -73,8 +73,8 @@ pub struct FrameStream<T> {
     frames: SyncSender<T>,
     surfaces: Receiver<Result<FrameSurface, FrameError>>,
     worker: Option<JoinHandle<()>>,
-    /// Why the loop ended, once it has.
-    ended: Option<String>,
+    /// Why the loop ended, once it has: the skin's error, said (`None`: the loop is gone).
+    ended: Option<Option<String>>,
 }
 
 /// The frames the loop asks for, received from the caller in order.
@@ -97,12 +97,12 @@ impl ParticleSource for Handed {
         match self.frames.recv() {
             Ok(particles) => Ok(Some((particles, PathBuf::from(format!("frame {frame}"))))),
             // The caller is gone: the loop ends.
-            Err(_) => Err(FrameError::Data("no more frames".into())),
+            Err(_) => Err(DataError::NoMoreFrames.into()),
         }
     }
 
     fn missing(&self, frame: i64) -> FrameError {
-        FrameError::Data(format!("frame {frame}: no particles"))
+        DataError::NoParticlesHanded { frame }.into()
     }
 
     /// The caller hands the next frame once it has this one's surface.
@@ -171,7 +171,7 @@ impl<T: Send + 'static> FrameStream<T> {
                     let _ = errors.send(Err(e));
                 }
             })
-            .map_err(|e| FrameError::Data(format!("cannot start the frame loop: {e}")))?;
+            .map_err(|source| DataError::LoopNotStarted { source })?;
         Ok(FrameStream {
             frames,
             surfaces,
@@ -183,27 +183,25 @@ impl<T: Send + 'static> FrameStream<T> {
     /// Hands over the next frame; its surface comes from [`FrameStream::wait`].
     pub fn send(&mut self, frame: T) -> Result<(), FrameError> {
         if let Some(why) = &self.ended {
-            return Err(FrameError::Data(why.clone()));
+            return Err(ended(why));
         }
-        self.frames
-            .send(frame)
-            .map_err(|_| self.end("the frame loop has stopped"))
+        self.frames.send(frame).map_err(|_| self.end())
     }
 
     /// The surface of the frame last handed over, waiting up to `timeout` (`Ok(None)`
     /// when it is not ready yet: a caller checks for an interrupt and waits again).
     pub fn wait(&mut self, timeout: Duration) -> Result<Option<FrameSurface>, FrameError> {
         if let Some(why) = &self.ended {
-            return Err(FrameError::Data(why.clone()));
+            return Err(ended(why));
         }
         match self.surfaces.recv_timeout(timeout) {
             Ok(Ok(surface)) => Ok(Some(surface)),
             Ok(Err(e)) => {
-                self.ended = Some(format!("the skin stopped: {e}"));
+                self.ended = Some(Some(e.to_string()));
                 Err(e)
             }
             Err(RecvTimeoutError::Timeout) => Ok(None),
-            Err(RecvTimeoutError::Disconnected) => Err(self.end("the frame loop has stopped")),
+            Err(RecvTimeoutError::Disconnected) => Err(self.end()),
         }
     }
 
@@ -217,10 +215,19 @@ impl<T: Send + 'static> FrameStream<T> {
         }
     }
 
-    fn end(&mut self, why: &str) -> FrameError {
-        self.ended = Some(why.to_string());
-        FrameError::Data(why.to_string())
+    fn end(&mut self) -> FrameError {
+        self.ended = Some(None);
+        DataError::LoopStopped.into()
     }
+}
+
+/// The error a stream that has ended gives each later call.
+fn ended(why: &Option<String>) -> FrameError {
+    match why {
+        Some(why) => DataError::SkinStopped { why: why.clone() },
+        None => DataError::LoopStopped,
+    }
+    .into()
 }
 
 impl<T> Drop for FrameStream<T> {
@@ -404,7 +411,7 @@ impl HandedLevelSets<'_> {
     fn next(&self) -> Result<LevelSetFrame, FrameError> {
         self.handed
             .recv()
-            .map_err(|_| FrameError::Data("no more frames".into()))
+            .map_err(|_| DataError::NoMoreFrames.into())
     }
 }
 

@@ -7,7 +7,7 @@ use glam::Vec3;
 
 use super::level_sets::{target_from_grid, to_world_units, TargetRead, TargetUnits};
 use super::scale::{self, ScaleFit};
-use super::{FrameError, InputFrames, LevelSetFrame};
+use super::{DataError, FrameError, InputFrames, LevelSetFrame};
 use crate::field::Field;
 use crate::flow::{Flow, GridFlow, Mean, Timing};
 use crate::sequence::FramePattern;
@@ -157,23 +157,17 @@ impl VelocityInput {
             Some(pattern) => pattern.path(frame),
             None => target_file.to_path_buf(),
         };
-        let listed = |grids: &[(String, String)]| -> String {
-            let listed: Vec<String> = grids.iter().map(|(g, t)| format!("'{g}' ({t})")).collect();
-            match listed.is_empty() {
-                true => "none".to_string(),
-                false => listed.join(", "),
-            }
-        };
         let name = match &self.source {
             VelocitySource::Off => return Ok(None),
             VelocitySource::Named(name) => {
                 let grids = vdb::grid_types(&path)?;
                 if !grids.iter().any(|(g, _)| g == name) {
-                    return Err(FrameError::Data(format!(
-                        "{}: no velocity grid named '{name}' (grids: {})",
-                        path.display(),
-                        listed(&grids)
-                    )));
+                    return Err(DataError::NoVelocityGrid {
+                        path,
+                        name: name.clone(),
+                        grids,
+                    }
+                    .into());
                 }
                 name.clone()
             }
@@ -207,13 +201,7 @@ impl VelocityInput {
                     }
                     // Velocity files given and none holds a velocity: not silently unused.
                     None if self.files.is_some() => {
-                        return Err(FrameError::Data(format!(
-                            "{}: no velocity grid named {} (grids: {}); name it with {}",
-                            path.display(),
-                            VELOCITY_NAMES.join(", "),
-                            listed(&grids),
-                            Field::Velocity
-                        )));
+                        return Err(DataError::NoVelocityFound { path, grids }.into());
                     }
                     None => return Ok(None),
                 }
@@ -221,10 +209,7 @@ impl VelocityInput {
         };
         let grid = vdb::read_vector_grid(&path, Some(&name))?;
         if !grid.uniform_linear {
-            return Err(FrameError::Data(format!(
-                "{}: velocity grid '{name}' has a non-uniform or non-linear transform",
-                path.display()
-            )));
+            return Err(DataError::VelocityNonUniform { path, name }.into());
         }
         Ok(Some((path, grid)))
     }
