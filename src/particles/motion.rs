@@ -15,6 +15,8 @@ use super::Particles;
 /// `scale`, or none); else by index when both hold as many particles and the order is
 /// plainly kept ([`Motion::coherent`]). `None` when the frames cannot be matched, or when
 /// what moved them is their jitter rather than the liquid's motion ([`Motion::carries`]).
+/// Where the liquid at large holds still but some particles travel well past its jitter
+/// (spray over a pool at rest), those are carried and the others held.
 pub fn frame_velocities(
     before: &Particles,
     now: &Particles,
@@ -62,8 +64,36 @@ pub fn frame_velocities(
         (moved, false)
     };
     let motion = assess(&now.positions, &moved, h);
-    let matched = by_id || motion.coherent;
-    (matched && motion.carries()).then(|| moved.into_iter().map(|d| d / duration).collect())
+    if !(by_id || motion.coherent) {
+        return None;
+    }
+    if motion.carries() {
+        return Some(moved.into_iter().map(|d| d / duration).collect());
+    }
+    // The liquid at large holds still, but part of it may travel: spray over a pool at
+    // rest, a drop falling into it. That part is carried; the rest, whose jitter the
+    // attraction filters, holds still.
+    let still = motion.still();
+    if !moved.iter().any(|d| d.length() >= 2.0 * still) {
+        return None;
+    }
+    Some(
+        moved
+            .into_iter()
+            .map(|d| d * travelling(d.length(), still) / duration)
+            .collect(),
+    )
+}
+
+/// How much of a displacement of `length` is carried over a liquid whose displacements
+/// up to `still` are its jitter: none up to `still`, all from twice that, smooth between
+/// (a particle does not jump from held to carried from one frame to the next).
+fn travelling(length: f32, still: f32) -> f32 {
+    if still <= 0.0 {
+        return 1.0;
+    }
+    let t = (length / still - 1.0).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
 }
 
 /// How the particles moved over a frame, from neighbour pairs (each particle and the next
@@ -86,7 +116,12 @@ impl Motion {
     /// carried by the jitter, a jittered ball at rest flickered 0.045–0.076 voxel a frame
     /// against 0.009 by attraction alone, the filtering the skin is for.
     fn carries(&self) -> bool {
-        self.travel > 3.0 * self.scatter
+        self.travel > self.still()
+    }
+
+    /// The displacement a particle's jitter reaches: three times the scatter.
+    fn still(&self) -> f32 {
+        3.0 * self.scatter
     }
 }
 
@@ -221,5 +256,19 @@ mod tests {
         // The same jitter on a drift ten times larger: carried.
         let drifting: Vec<Vec3> = at_rest.iter().map(|p| *p + Vec3::X * 0.1).collect();
         assert!(frame_velocities(&before, &cloud(drifting, None, None), 0.25, None, h).is_some());
+        // The pool at rest, jittering, and a drop of a few particles flying past: the drop
+        // carried, the pool held.
+        let mut splashed = at_rest.clone();
+        for p in &mut splashed[995..] {
+            *p += Vec3::X * 0.1;
+        }
+        let u = frame_velocities(&before, &cloud(splashed.clone(), None, None), 0.25, None, h)
+            .expect("the drop is carried");
+        for (i, v) in u.iter().enumerate() {
+            match i >= 995 {
+                true => assert!((*v - (splashed[i] - positions[i]) / 0.25).length() < 1e-4),
+                false => assert_eq!(*v, Vec3::ZERO, "particle {i} jitters"),
+            }
+        }
     }
 }
