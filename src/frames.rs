@@ -96,10 +96,23 @@ pub enum FrameError {
     /// A request that cannot be met whatever the files hold (a command-line mistake).
     #[error(transparent)]
     Usage(#[from] UsageError),
-    /// Work that would take more memory than the budget ([`crate::budget`]), refused
-    /// before allocating it.
-    #[error("{0}")]
-    OverBudget(String),
+    /// A particle density that would take more memory than the budget
+    /// ([`crate::budget`], bytes), refused before allocating it.
+    #[error(
+        "{}: the particles' density would take {} at voxels of {voxel} (kernels of {kernel} across), over the memory budget of {}: give a larger {} (or {})",
+        path.display(),
+        crate::budget::size(*needed),
+        crate::budget::size(*budget),
+        crate::field::Field::VoxelSize,
+        crate::field::Field::MaxMemory
+    )]
+    OverBudget {
+        path: std::path::PathBuf,
+        needed: u64,
+        voxel: f32,
+        kernel: f32,
+        budget: u64,
+    },
 }
 
 /// The frame rate when none is given: film's.

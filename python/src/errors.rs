@@ -5,7 +5,7 @@ use super::*;
 pub(crate) fn value_error(e: FrameError) -> PyErr {
     match &e {
         // Refused before allocating: Python's own word for it, which a caller can catch.
-        FrameError::OverBudget(_) | FrameError::Skin(SkinError::OverBudget { .. }) => {
+        FrameError::OverBudget { .. } | FrameError::Skin(SkinError::OverBudget { .. }) => {
             PyMemoryError::new_err(said(&e))
         }
         _ => PyValueError::new_err(said(&e)),

@@ -382,16 +382,13 @@ impl ParticleInput {
         };
         let budget = crate::budget::bytes();
         let grid = DensityGrid::rasterize_within(&density, self.dx, budget).map_err(|needed| {
-            FrameError::OverBudget(format!(
-                "{}: the particles' density would take {} at voxels of {} (kernels of {} across), over the memory budget of {}: give a larger {} (or {})",
-                path.display(),
-                crate::budget::size(needed),
-                self.dx,
-                2.0 * support * self.radius,
-                crate::budget::size(budget),
-                Field::VoxelSize,
-                Field::MaxMemory
-            ))
+            FrameError::OverBudget {
+                path: path.into(),
+                needed,
+                voxel: self.dx,
+                kernel: 2.0 * support * self.radius,
+                budget,
+            }
         })?;
         // The fog volume (OpenVDB only: check() refuses --density-out without it).
         #[cfg(not(feature = "vdb"))]
