@@ -269,12 +269,8 @@ impl ParticleInput {
                 return Err(UsageError::TooLong { field, value }.into());
             }
         }
-        if let Some(k) = self.velocity_scale.filter(|k| !k.is_finite()) {
-            return Err(UsageError::NotANumber {
-                field: Field::VelocityScale,
-                value: f64::from(k),
-            }
-            .into());
+        if let Some(k) = self.velocity_scale {
+            super::usage::finite(Field::VelocityScale, f64::from(k))?;
         }
         if cfg!(not(feature = "vdb")) && self.density_out.is_some() {
             return Err(UsageError::FogWithoutVdb {

@@ -73,8 +73,8 @@ pub struct FrameStream<T> {
     frames: SyncSender<T>,
     surfaces: Receiver<Result<FrameSurface, FrameError>>,
     worker: Option<JoinHandle<()>>,
-    /// Why the loop ended, once it has: the skin's error, said (`None`: the loop is gone).
-    ended: Option<Option<String>>,
+    /// Why the loop ended, once it has.
+    ended: Option<Ended>,
 }
 
 /// The frames the loop asks for, received from the caller in order.
@@ -182,8 +182,8 @@ impl<T: Send + 'static> FrameStream<T> {
 
     /// Hands over the next frame; its surface comes from [`FrameStream::wait`].
     pub fn send(&mut self, frame: T) -> Result<(), FrameError> {
-        if let Some(why) = &self.ended {
-            return Err(ended(why));
+        if let Some(ended) = &self.ended {
+            return Err(ended.error());
         }
         self.frames.send(frame).map_err(|_| self.end())
     }
@@ -191,13 +191,13 @@ impl<T: Send + 'static> FrameStream<T> {
     /// The surface of the frame last handed over, waiting up to `timeout` (`Ok(None)`
     /// when it is not ready yet: a caller checks for an interrupt and waits again).
     pub fn wait(&mut self, timeout: Duration) -> Result<Option<FrameSurface>, FrameError> {
-        if let Some(why) = &self.ended {
-            return Err(ended(why));
+        if let Some(ended) = &self.ended {
+            return Err(ended.error());
         }
         match self.surfaces.recv_timeout(timeout) {
             Ok(Ok(surface)) => Ok(Some(surface)),
             Ok(Err(e)) => {
-                self.ended = Some(Some(e.to_string()));
+                self.ended = Some(Ended::Skin(e.to_string()));
                 Err(e)
             }
             Err(RecvTimeoutError::Timeout) => Ok(None),
@@ -216,18 +216,26 @@ impl<T: Send + 'static> FrameStream<T> {
     }
 
     fn end(&mut self) -> FrameError {
-        self.ended = Some(None);
-        DataError::LoopStopped.into()
+        self.ended = Some(Ended::Loop);
+        Ended::Loop.error()
     }
 }
 
-/// The error a stream that has ended gives each later call.
-fn ended(why: &Option<String>) -> FrameError {
-    match why {
-        Some(why) => DataError::SkinStopped { why: why.clone() },
-        None => DataError::LoopStopped,
+/// How a stream ended: the frame loop gone, or the skin stopped on an error (said).
+enum Ended {
+    Loop,
+    Skin(String),
+}
+
+impl Ended {
+    /// The error each later call gives.
+    fn error(&self) -> FrameError {
+        match self {
+            Ended::Loop => DataError::LoopStopped,
+            Ended::Skin(why) => DataError::SkinStopped { why: why.clone() },
+        }
+        .into()
     }
-    .into()
 }
 
 impl<T> Drop for FrameStream<T> {
@@ -335,13 +343,10 @@ impl FrameStream<LevelSetFrame> {
     /// Checks `spec` and starts the loop, waiting for the first frame's target.
     pub fn start(spec: LevelSetSpec) -> Result<Self, FrameError> {
         super::check_fps(spec.fps)?;
-        if !spec.velocity_scale.is_finite() {
-            return Err(UsageError::NotANumber {
-                field: crate::field::Field::VelocityScale,
-                value: f64::from(spec.velocity_scale),
-            }
-            .into());
-        }
+        super::usage::finite(
+            crate::field::Field::VelocityScale,
+            f64::from(spec.velocity_scale),
+        )?;
         // Checked now, on any voxel size, so that a bad α fails here, not at frame 1.
         spec.physics
             .params(spec.physics.voxel_size.unwrap_or(1.0))

@@ -171,6 +171,14 @@ impl fmt::Display for Number {
     }
 }
 
+/// `value` unless it is a finite number.
+pub(crate) fn finite(field: Field, value: f64) -> Result<(), UsageError> {
+    match value.is_finite() {
+        true => Ok(()),
+        false => Err(UsageError::NotANumber { field, value }),
+    }
+}
+
 /// `value` unless it is a finite positive number.
 pub(crate) fn positive(field: Field, value: f64) -> Result<(), UsageError> {
     match value.is_finite() && value > 0.0 {
