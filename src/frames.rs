@@ -143,7 +143,11 @@ pub struct FrameInput<'t> {
     pub volume: Option<f64>,
     /// Particle attributes to carry onto the surface's vertices (`--attribute`).
     pub attributes: Option<AttributeSource>,
+    /// Spray particles, near which the skin takes the target's surface each frame.
+    pub spray: Spray,
 }
+
+pub use crate::skin::Spray;
 
 impl<'t> FrameInput<'t> {
     /// A target alone, followed by attraction, never seeded (a morph's end shape).
@@ -155,6 +159,7 @@ impl<'t> FrameInput<'t> {
             seed: false,
             volume: None,
             attributes: None,
+            spray: Spray::default(),
         }
     }
 }
@@ -477,7 +482,8 @@ fn settle_and_write(
     let near = input
         .filter(|_| this.smooths)
         .map(|i| &*i.target as &dyn Target);
-    let level_set = skin.settle_holding(hold, near);
+    let spray = input.map(|i| (&*i.target as &dyn Target, &i.spray));
+    let level_set = skin.settle_holding(hold, near, spray);
     if frame < writing.write_from {
         return Ok(level_set);
     }

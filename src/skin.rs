@@ -14,6 +14,7 @@ mod relax;
 mod seed;
 mod smooth;
 pub mod speed;
+mod spray;
 mod timestep;
 pub mod velocity;
 
@@ -35,6 +36,7 @@ use crate::target::{Backtracked, Target};
 
 pub use any::AnySkin;
 pub use speed::{AttractionSample, SpeedParams};
+pub use spray::Spray;
 
 /// Largest displacement by the flow in one sub-step, in voxels (the halo is one node).
 const ADVECTION_CFL: f32 = 0.9;

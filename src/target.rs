@@ -14,7 +14,7 @@ use crate::grid::Aabb;
 pub use backtracked::Backtracked;
 pub use particles::{
     fluid_iso, iso_for_radius, kernel, rest_density, Density, DensityGrid,
-    DEFAULT_SMOOTHING_LENGTH, MAX_SMOOTHING_LENGTH, VELOCITY_SUPPORT_RADII,
+    DEFAULT_SMOOTHING_LENGTH, MAX_SMOOTHING_LENGTH, SPRAY_LINK, SPRAY_MOST, VELOCITY_SUPPORT_RADII,
 };
 pub use shapes::{Blobs, BoxShape, Skeleton, Sphere, Torus, Union};
 pub use vdb::{FogTarget, LevelSetTarget};

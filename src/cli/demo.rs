@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use activeskin::flow::{Flow, Rigid, Timing};
+use activeskin::frames::Spray;
 use activeskin::grid::Aabb;
 use activeskin::io::ply;
 use activeskin::particles::splash;
@@ -158,6 +159,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
                 seed: false,
                 volume: None,
                 attributes: None,
+                spray: Spray::default(),
             })
         },
     )?;
@@ -204,6 +206,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
                 seed: true,
                 volume: None,
                 attributes: None,
+                spray: Spray::default(),
             })
         },
     )?;

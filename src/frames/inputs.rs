@@ -12,8 +12,8 @@ use crate::io::particles;
 use crate::particles::{motion::frame_velocities, Attribute, Particles};
 use crate::sequence::{FramePattern, PatternError};
 use crate::target::{
-    fluid_iso, Density, DensityGrid, DEFAULT_SMOOTHING_LENGTH, MAX_SMOOTHING_LENGTH,
-    VELOCITY_SUPPORT_RADII,
+    fluid_iso, Density, DensityGrid, DEFAULT_SMOOTHING_LENGTH, MAX_SMOOTHING_LENGTH, SPRAY_LINK,
+    SPRAY_MOST, VELOCITY_SUPPORT_RADII,
 };
 #[cfg(feature = "vdb")]
 use crate::vdb::{self, Grid, WriteOptions};
@@ -171,6 +171,15 @@ pub struct ParticleInput {
 pub(super) const MAX_LENGTH: f32 = 1e15;
 
 impl ParticleInput {
+    /// How near its spray particles the skin takes a frame's target's surface
+    /// ([`super::Spray`]): wholly within a radius short of the spray's link (3.25 radii at
+    /// the default smoothing length, the drop's surface and the gap between it and the
+    /// liquid), blending back to its own at the link.
+    pub fn spray_reach(&self) -> (f32, f32) {
+        let link = SPRAY_LINK * 2.0 * self.smoothing_length * self.radius;
+        ((link - self.radius).max(0.5 * link), link)
+    }
+
     /// Particles of `radius` at the defaults: smoothing length
     /// [`DEFAULT_SMOOTHING_LENGTH`], the iso-density of a fluid at rest's boundary
     /// ([`fluid_iso`]), voxels of half the radius, velocities as they are, no attributes.
@@ -241,6 +250,8 @@ pub struct ParticleFrame {
     pub note: Option<String>,
     /// The attributes asked for, when some were.
     pub attributes: Option<AttributeSource>,
+    /// Spray particles.
+    pub spray: Vec<Vec3>,
 }
 
 impl ParticleInput {
@@ -351,13 +362,6 @@ impl ParticleInput {
             )
         });
         let support = 2.0 * self.smoothing_length;
-        let density = match &cloud.radii {
-            Some(radii) if !self.ignore_radii => {
-                let supports = radii.iter().map(|r| support * r).collect();
-                Density::with_supports(cloud.positions.clone(), supports, self.iso)
-            }
-            _ => Density::new(cloud.positions.clone(), support * self.radius, self.iso),
-        };
         let h = support * self.radius;
         let motion = match (before, self.velocity_scale) {
             (Some(before), Some(k)) => frame_velocities(before, &cloud, duration, Some(k), h),
@@ -365,6 +369,14 @@ impl ParticleInput {
         };
         let carried = motion.is_some();
         let l = self.smoothing_length;
+        let density = match &cloud.radii {
+            Some(radii) if !self.ignore_radii => {
+                let supports = radii.iter().map(|r| support * r).collect();
+                Density::with_supports(cloud.positions.clone(), supports, self.iso)
+            }
+            _ => Density::new(cloud.positions.clone(), support * self.radius, self.iso),
+        };
+        let density = density.finding_spray(self.spray_reach().1, SPRAY_MOST);
         let density = match (motion, &cloud.velocities, self.velocity_scale) {
             (Some(u), ..) => density
                 .with_velocities(&u)
@@ -376,6 +388,7 @@ impl ParticleInput {
             }
             _ => density.normalized(l),
         };
+        let spray_points = density.spray_positions();
         let budget = crate::budget::bytes();
         let grid = DensityGrid::rasterize_within(&density, self.dx, budget).map_err(|needed| {
             FrameError::OverBudget {
@@ -400,6 +413,7 @@ impl ParticleInput {
             particles: cloud,
             carried,
             note,
+            spray: spray_points,
             attributes: attributes.map(|attributes| AttributeSource {
                 density,
                 attributes,

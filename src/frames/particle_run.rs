@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use super::{
     AttributeChoice, AttributeSource, DataError, FrameError, FrameInput, InputFrames, Outputs,
-    ParticleFrame, ParticleInput,
+    ParticleFrame, ParticleInput, Spray,
 };
 use crate::flow::{Flow, FlowMap, Timing};
 use crate::io::particles;
@@ -110,7 +110,13 @@ impl ParticleRun<'_> {
         // density output, written as a fog volume on the way); the density comes back
         // with whether it carries the frame's motion, what the particles hold (their
         // number) and the attributes asked for.
-        type Read = (DensityGrid, bool, f64, Option<AttributeSource>);
+        type Read = (
+            DensityGrid,
+            bool,
+            f64,
+            Option<AttributeSource>,
+            Vec<glam::Vec3>,
+        );
         // The sequence's first frame sets the volume held: every run, chunk and resume
         // of the shot holds the same (this run's first frame's is measured below).
         let reference_share = match self.reference_frame() {
@@ -120,6 +126,7 @@ impl ParticleRun<'_> {
             _ => None,
         };
         let read_ahead = source.reads_ahead();
+        let (inner, outer) = self.particles.spray_reach();
         let mut frame_at = |frame: i64| -> Result<Read, FrameError> {
             let Some((cloud, path)) = source.particles(frame)? else {
                 return Err(source.missing(frame));
@@ -140,6 +147,7 @@ impl ParticleRun<'_> {
                 carried,
                 note: said,
                 attributes,
+                spray,
             } = reader.frame_of(cloud, &path, frame, before.as_ref(), duration)?;
             // Said once: a cache that strays does so on many frames.
             if let Some(line) = said.filter(|_| !noted) {
@@ -148,11 +156,11 @@ impl ParticleRun<'_> {
             }
             let count = held(&particles, reader);
             last = Some((frame, particles));
-            Ok((density, carried, count, attributes))
+            Ok((density, carried, count, attributes, spray))
         };
         // The skin starts on the first frame's density, one solid: the small voids of a
         // density whose kernel barely spans the spacing would each become a skin to remove.
-        let (mut first, _, count, first_attributes) = frame_at(range.0)?;
+        let (mut first, _, count, first_attributes, first_spray) = frame_at(range.0)?;
         first.fill_voids(self.particles.void_volume());
         let skin = AnySkin::try_new(&first, self.params)?;
         let share = match self.hold_volume {
@@ -161,7 +169,7 @@ impl ParticleRun<'_> {
         }
         .filter(|s| s.is_finite() && *s > 0.0);
         // The loop asks for the first frame once more, for its velocity.
-        let mut first = Some((Arc::new(first), first_attributes));
+        let mut first = Some((Arc::new(first), first_attributes, first_spray));
         super::run(
             range,
             write_from,
@@ -169,13 +177,13 @@ impl ParticleRun<'_> {
             (self.fps, self.timing),
             outputs,
             (read_ahead, |frame| {
-                let (density, carried, count, attributes) = match first.take() {
-                    Some((grid, attributes)) if frame == range.0 => {
-                        (grid, false, count, attributes)
+                let (density, carried, count, attributes, spray) = match first.take() {
+                    Some((grid, attributes, spray)) if frame == range.0 => {
+                        (grid, false, count, attributes, spray)
                     }
                     _ => {
-                        let (density, carried, count, attributes) = frame_at(frame)?;
-                        (Arc::new(density), carried, count, attributes)
+                        let (density, carried, count, attributes, spray) = frame_at(frame)?;
+                        (Arc::new(density), carried, count, attributes, spray)
                     }
                 };
                 // Particles matched from the frame before carry the skin by their own motion;
@@ -190,6 +198,11 @@ impl ParticleRun<'_> {
                     seed: true,
                     volume: share.map(|share| share * count),
                     attributes,
+                    spray: Spray {
+                        points: spray,
+                        inner,
+                        outer,
+                    },
                 })
             }),
         )

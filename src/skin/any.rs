@@ -102,7 +102,12 @@ impl AnySkin {
     pub fn settle(&mut self) -> GridData {
         each!(self, s => s.settle())
     }
-    pub fn settle_holding(&mut self, volume: Option<f64>, near: Option<&dyn Target>) -> GridData {
-        each!(self, s => s.settle_holding(volume, near))
+    pub fn settle_holding(
+        &mut self,
+        volume: Option<f64>,
+        near: Option<&dyn Target>,
+        spray: Option<(&dyn Target, &super::Spray)>,
+    ) -> GridData {
+        each!(self, s => s.settle_holding(volume, near, spray))
     }
 }

@@ -3,7 +3,7 @@
 
 use glam::IVec3;
 
-use super::{band, Skin, SkinError};
+use super::{band, Skin, SkinError, Spray};
 use crate::grid::{Potential, BLOCK_DIM, BLOCK_NODES};
 use crate::target::Target;
 use crate::volume::{GridClass, GridData, Tile, Transform, MASK_WORDS};
@@ -82,7 +82,7 @@ impl<P: Potential> Skin<P> {
     /// ([`Skin::to_level_set`], then [`Skin::restore`]), which is returned for writing.
     /// Every frame ends so, written or not, so the skin never depends on its outputs.
     pub fn settle(&mut self) -> GridData {
-        self.settle_holding(None, None)
+        self.settle_holding(None, None, None)
     }
 
     /// [`Skin::settle`], the skin first smoothed ([`SkinParams::smoothing`], staying near
@@ -90,9 +90,21 @@ impl<P: Potential> Skin<P> {
     /// volume before the smoothing when not given) by the uniform normal offset that
     /// gives it back (§5.2's constraint met at once), meshed once, by the restore: for
     /// inputs that conserve their volume, such as an incompressible liquid's particles,
-    /// whose density's iso-surface does not.
-    pub fn settle_holding(&mut self, volume: Option<f64>, near: Option<&dyn Target>) -> GridData {
+    /// whose density's iso-surface does not. Around `spray`'s particles the skin takes
+    /// its target's surface ([`Spray`]): before the smoothing, which then spares the
+    /// drops as small pieces, and again after the offset, which could close the gap
+    /// between a drop and the liquid it left.
+    pub fn settle_holding(
+        &mut self,
+        volume: Option<f64>,
+        near: Option<&dyn Target>,
+        spray: Option<(&dyn Target, &Spray)>,
+    ) -> GridData {
         let smoothing = self.params.smoothing;
+        let take = |skin: &mut Self| spray.is_some_and(|(t, s)| skin.take_target_near(t, s));
+        if take(self) {
+            self.polygonize();
+        }
         let volume = match smoothing > 0.0 {
             true => {
                 let unsmoothed = self.volume;
@@ -117,6 +129,9 @@ impl<P: Potential> Skin<P> {
             self.refit_band();
             self.polygonize();
             self.drop_crumbs();
+        }
+        if take(self) {
+            self.polygonize();
         }
         let level_set = self.to_level_set();
         self.restore(&level_set)

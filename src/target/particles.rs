@@ -57,6 +57,18 @@ const CROWD_CUBES: f32 = 8.0;
 /// mean is zero — a ball of VDB points moving 4 voxels a frame then trailed 1.8 voxels.
 pub const VELOCITY_SUPPORT_RADII: f32 = 2.5;
 
+/// Spray ([`Density::finding_spray`]): clusters of at most [`SPRAY_MOST`] particles
+/// linked by steps of at most this share of the kernel's support (3.25 radii at the
+/// default smoothing length) from any other particle. Our kernel's sum joins two
+/// particles up to 4.25 radii apart; on a SPlisHSPlasH dam break, the clusters at this
+/// link are the droplets smoothed splashsurf shows (3.5 radii: a third of them, 3: half
+/// again as many), drops of 2–4 particles 0.2–0.6 r apart, their nearest other
+/// particle 3.4–4 r away.
+pub const SPRAY_LINK: f32 = 0.8125;
+
+/// The most particles a cluster of spray holds: droplets, not a sheet or a jet.
+pub const SPRAY_MOST: usize = 16;
+
 /// The least kernel weight a mean velocity is taken over: less is no particle.
 const MIN_VELOCITY_WEIGHT: f32 = 1e-6;
 
@@ -156,6 +168,10 @@ pub struct Density {
     h: f32,
     iso: f32,
     bounds: Aabb,
+    /// Which particles are spray, in `particles`' order (empty until found).
+    spray: Vec<bool>,
+    /// [`Density::finding_spray`]'s link and largest cluster.
+    spray_rule: Option<(f32, usize)>,
 }
 
 impl Density {
@@ -206,6 +222,8 @@ impl Density {
             h,
             iso,
             bounds: bounds.padded(h),
+            spray: Vec::new(),
+            spray_rule: None,
         }
     }
 
@@ -270,30 +288,39 @@ impl Density {
         // rest; many times that is particles piled on each other (a copied piece, a
         // broken export), whose pairs would cost their number squared.
         let crowd = CROWD_OVER_REST * 27.0 * smoothing_length.powi(3);
-        self.volumes = self.per_cell(|cell, runs| {
+        let (link2, most) = self.spray_rule.map_or((-1.0, 0), |(l, m)| (l * l, m));
+        let sums: Vec<(f32, bool)> = self.per_cell(|cell, runs| {
             if runs.iter().map(ExactSizeIterator::len).sum::<usize>() as f32 > crowd {
                 return self
                     .crowded_sums(cell, runs)
                     .into_iter()
-                    .map(volume)
+                    .map(|g| (volume(g), true))
                     .collect();
             }
-            // Each sum in the same order as `density`'s.
+            // Each sum in the same order as `density`'s; the neighbours within the
+            // spray's link counted on the way (itself included).
             cell.map(|i| {
                 let p = self.particles[i].0;
-                let mut g = 0.0f32;
+                let (mut g, mut linked) = (0.0f32, 0usize);
                 for run in runs {
                     for &(q, inv_h2) in &self.particles[run.clone()] {
-                        let s = 1.0 - (p - q).length_squared() * inv_h2;
+                        let d2 = (p - q).length_squared();
+                        linked += usize::from(d2 <= link2);
+                        let s = 1.0 - d2 * inv_h2;
                         if s > 0.0 {
                             g += s * s * s;
                         }
                     }
                 }
-                volume(g)
+                (volume(g), linked > most)
             })
             .collect()
         });
+        let crowded: Vec<bool>;
+        (self.volumes, crowded) = sums.into_iter().unzip();
+        if self.spray_rule.is_some() {
+            self.spray = self.walk_spray(&crowded, link2, most);
+        }
         self
     }
 
@@ -340,6 +367,115 @@ impl Density {
             sums[&((p / step).floor().as_ivec3(), inv_h2.to_bits())]
         })
         .collect()
+    }
+
+    /// Marks the spray when the density is [`Density::normalized`]: the members of
+    /// clusters of at most `most` particles, a cluster being the particles linked by
+    /// chains of steps of at most `link` (world units, no more than the support), with
+    /// no particle of another such cluster within the support. Such
+    /// particles are then rasterized apart from the rest and the two densities united
+    /// ([`DensityGrid::union`]): summed, a drop a few radii off the liquid is joined to
+    /// it by the kernels' tails.
+    pub fn finding_spray(mut self, link: f32, most: usize) -> Self {
+        self.spray_rule = Some((link.min(self.h), most));
+        self
+    }
+
+    /// Whether some particles are spray ([`Density::finding_spray`]).
+    pub fn has_spray(&self) -> bool {
+        self.spray.iter().any(|&s| s)
+    }
+
+    /// The spray particles' positions.
+    pub fn spray_positions(&self) -> Vec<Vec3> {
+        let mut out: Vec<(u32, Vec3)> = (self.spray.iter().zip(&self.particles).zip(&self.order))
+            .filter(|((&s, _), _)| s)
+            .map(|((_, &(p, _)), &i)| (i, p))
+            .collect();
+        out.sort_unstable_by_key(|&(i, _)| i);
+        out.into_iter().map(|(_, p)| p).collect()
+    }
+
+    /// Whether particle `i` (in `particles`' order) is spray.
+    fn is_spray(&self, i: usize) -> bool {
+        self.spray.get(i).copied().unwrap_or(false)
+    }
+
+    /// The spray among particles of which `crowded` (in `particles`' order) have more
+    /// than `most` others within `link` (squared: `link2`): those and every particle
+    /// linked to them are not; the few left are walked cluster by cluster. A small
+    /// cluster is spray when no particle of another small cluster lies within the
+    /// support of it: a drop off the liquid, not a sheet or a mist spread thin, whose
+    /// particles the sum must join.
+    fn walk_spray(&self, crowded: &[bool], link2: f32, most: usize) -> Vec<bool> {
+        const UNSEEN: u32 = u32::MAX;
+        const WALKED: u32 = u32::MAX - 1;
+        const BULK: u32 = u32::MAX - 2;
+        // Each particle's small cluster, else one of the marks above.
+        let mut state: Vec<u32> = crowded
+            .iter()
+            .map(|&c| if c { BULK } else { UNSEEN })
+            .collect();
+        let key = |p: Vec3| (p / self.h).floor().as_ivec3();
+        // The particles within `reach2` of `p`, by index.
+        let around = |p: Vec3, reach2: f32| {
+            AROUND
+                .iter()
+                .filter_map(move |&d| self.cells.get(&(key(p) + d)))
+                .flat_map(move |&(a, b)| {
+                    let run = a as usize..b as usize;
+                    run.clone()
+                        .zip(&self.particles[run])
+                        .filter(move |(_, &(q, _))| (q - p).length_squared() <= reach2)
+                        .map(|(j, _)| j)
+                })
+        };
+        let mut clusters: Vec<Vec<usize>> = Vec::new();
+        let mut cluster = Vec::new();
+        for start in 0..self.particles.len() {
+            if state[start] != UNSEEN {
+                continue;
+            }
+            state[start] = WALKED;
+            cluster.clear();
+            cluster.push(start);
+            let (mut next, mut bulk) = (0, false);
+            while next < cluster.len() && !bulk {
+                let p = self.particles[cluster[next]].0;
+                next += 1;
+                for j in around(p, link2) {
+                    bulk |= state[j] == BULK;
+                    if state[j] == UNSEEN {
+                        state[j] = WALKED;
+                        cluster.push(j);
+                    }
+                }
+                bulk |= cluster.len() > most;
+            }
+            let end = match bulk {
+                true => BULK,
+                false => clusters.len() as u32,
+            };
+            for &i in &cluster {
+                state[i] = end;
+            }
+            if !bulk {
+                clusters.push(cluster.clone());
+            }
+        }
+        let h2 = self.h * self.h;
+        let mut spray = vec![false; self.particles.len()];
+        for (id, members) in clusters.iter().enumerate() {
+            let alone = members.iter().all(|&i| {
+                around(self.particles[i].0, h2).all(|j| state[j] == BULK || state[j] == id as u32)
+            });
+            if alone {
+                for &i in members {
+                    spray[i] = true;
+                }
+            }
+        }
+        spray
     }
 
     /// Averages the velocity over the particles within `radii` particle radii (at most
@@ -663,5 +799,46 @@ mod tests {
             "{} vs {fd}",
             grad.x
         );
+    }
+
+    /// Particles of radius 1 on a lattice of spacing 2, `n` along each axis from `at`.
+    fn lattice(n: [i32; 3], at: Vec3) -> Vec<Vec3> {
+        let mut out = Vec::new();
+        for i in 0..n[0] {
+            for j in 0..n[1] {
+                for k in 0..n[2] {
+                    out.push(at + 2.0 * Vec3::new(i as f32, j as f32, k as f32));
+                }
+            }
+        }
+        out
+    }
+
+    /// Spray is the clusters of at most 16 particles past the link (3.25 radii) from any
+    /// other, with no other such cluster within the support (4 radii): a clump of three
+    /// 3.5 radii over a pool and a line of 16 are; a particle 3 radii off the pool, a
+    /// line of 17 and two particles 3.5 radii apart (a mist, a sheet spread thin) are
+    /// not, nor the pool.
+    #[test]
+    fn spray_is_the_small_clusters_past_the_link() {
+        let mut points = lattice([8, 8, 4], Vec3::ZERO);
+        let top = Vec3::new(8.0, 8.0, 6.0);
+        let clump = [0.0, 0.4, 0.8].map(|x| top + Vec3::new(x, 0.3 * x, 3.5 + 0.2 * x));
+        let linked = Vec3::new(-3.0, 4.0, 2.0);
+        let sixteen = lattice([16, 1, 1], Vec3::new(0.0, 40.0, 0.0));
+        let seventeen = lattice([17, 1, 1], Vec3::new(0.0, 60.0, 0.0));
+        points.extend(clump);
+        points.push(linked);
+        points.extend(&sixteen);
+        points.extend(&seventeen);
+        points.extend([Vec3::new(0.0, 80.0, 0.0), Vec3::new(3.5, 80.0, 0.0)]);
+        let density = Density::new(points.clone(), 4.0, fluid_iso(2.0))
+            .finding_spray(3.25, SPRAY_MOST)
+            .normalized(2.0);
+        let expected: Vec<Vec3> = clump.iter().chain(&sixteen).copied().collect();
+        assert_eq!(density.spray_positions(), expected);
+        // Not asked, none.
+        let plain = Density::new(points, 4.0, fluid_iso(2.0)).normalized(2.0);
+        assert!(!plain.has_spray());
     }
 }

@@ -67,8 +67,25 @@ impl DensityGrid {
     /// `Err` holds the bytes it would take (a cloud whose kernels span many blocks each,
     /// tiny voxels or huge radii, with few neighbours to share them).
     pub fn rasterize_within(density: &Density, dx: f32, budget: u64) -> Result<Self, u64> {
+        if !density.has_spray() {
+            return Self::rasterize_part(density, dx, budget, None);
+        }
+        let mut bulk = Self::rasterize_part(density, dx, budget, Some(false))?;
+        let spray = Self::rasterize_part(density, dx, budget, Some(true))?;
+        bulk.union(spray);
+        Ok(bulk)
+    }
+
+    /// [`DensityGrid::rasterize_within`] of the spray (`Some(true)`), the rest
+    /// (`Some(false)`) or all particles (`None`).
+    fn rasterize_part(
+        density: &Density,
+        dx: f32,
+        budget: u64,
+        part: Option<bool>,
+    ) -> Result<Self, u64> {
         assert!(dx > 0.0, "voxel size must be positive");
-        let cells = Cells::of(density, dx);
+        let cells = Cells::of(density, dx, part);
         let touched = touched_blocks(density, &cells, budget)?;
         let (order, list) = (&cells.order, &cells.list);
         let runs: HashMap<IVec3, (usize, usize)> = list
@@ -160,12 +177,13 @@ struct Cells {
 }
 
 impl Cells {
-    fn of(density: &Density, dx: f32) -> Self {
+    fn of(density: &Density, dx: f32, part: Option<bool>) -> Self {
         let side = DIM as f32 * dx;
         let mut order: Vec<(IVec3, u32)> = density
             .particles
             .par_iter()
             .enumerate()
+            .filter(|&(i, _)| part.map_or(true, |spray| density.is_spray(i) == spray))
             .map(|(i, &(p, _))| ((p / side).floor().as_ivec3(), i as u32))
             .collect();
         order.par_sort_unstable_by_key(|&(c, i)| (c.to_array(), i));
@@ -344,6 +362,42 @@ impl DensityGrid {
         }
         self.mark_deep();
         voids
+    }
+
+    /// The union of two densities of the same voxel and iso: at each node the greater
+    /// G with its gradient, so that each one's surface is kept whole where they come near
+    /// (their sum would join them) — spray kept apart from the liquid it flew from. The
+    /// velocity is the mean over both's particles.
+    pub fn union(&mut self, other: DensityGrid) {
+        assert!(
+            self.dx == other.dx && self.iso == other.iso,
+            "one grid, one iso"
+        );
+        self.h = self.h.max(other.h);
+        self.bounds = self.bounds.union(other.bounds);
+        for block in other.blocks {
+            let Some(&slot) = self.slots.get(&block.coord) else {
+                self.slots.insert(block.coord, self.blocks.len() as u32);
+                self.blocks.push(block);
+                continue;
+            };
+            let mine = &mut self.blocks[slot as usize];
+            for n in 0..NODES {
+                if block.field[0][n] > mine.field[0][n] {
+                    for c in 0..4 {
+                        mine.field[c][n] = block.field[c][n];
+                    }
+                }
+            }
+            if let (Some(m), Some(o)) = (mine.momentum.as_mut(), block.momentum.as_ref()) {
+                for c in 0..4 {
+                    for n in 0..NODES {
+                        m[c][n] += o[c][n];
+                    }
+                }
+            }
+        }
+        self.mark_deep();
     }
 
     fn mark_deep(&mut self) {
@@ -1076,5 +1130,50 @@ mod tests {
         assert!(sheet.distance(Vec3::ZERO) < 0.0);
         assert!(sheet.distance(Vec3::Z * 2.0 * r) > 0.0);
         assert!(sheet.distance(-Vec3::Z * 2.0 * r) > 0.0);
+    }
+
+    /// A clump of three particles 3.5 radii over a pool: summed, the kernels' tails join
+    /// it to the pool; found as spray, it is rasterized apart and united, so the density
+    /// between them is below the iso, while in the clump and the pool it is as summed.
+    #[test]
+    fn spray_is_rasterized_apart_and_united() {
+        let mut points = Vec::new();
+        for i in 0..8 {
+            for j in 0..8 {
+                for k in 0..4 {
+                    points.push(2.0 * Vec3::new(i as f32, j as f32, k as f32));
+                }
+            }
+        }
+        let top = Vec3::new(8.0, 8.0, 6.0);
+        let clump = [0.0, 0.4, 0.8].map(|x| top + Vec3::new(x, 0.3 * x, 3.5 + 0.2 * x));
+        points.extend(clump);
+        let (l, dx) = (2.0, 0.25);
+        let summed = Density::new(points.clone(), 4.0, fluid_iso(l)).normalized(l);
+        let united = Density::new(points, 4.0, fluid_iso(l))
+            .finding_spray(3.25, crate::target::SPRAY_MOST)
+            .normalized(l);
+        let (summed, united) = (
+            DensityGrid::rasterize(&summed, dx),
+            DensityGrid::rasterize(&united, dx),
+        );
+        let iso = fluid_iso(l);
+        let gap = top + Vec3::new(0.0, 0.0, 1.75);
+        let (joined, apart) = (
+            summed.density_and_gradient(gap).0,
+            united.density_and_gradient(gap).0,
+        );
+        assert!(
+            joined > iso && apart < iso,
+            "{joined} and {apart}, iso {iso}"
+        );
+        for p in [clump[1], Vec3::new(6.0, 6.0, 2.0)] {
+            let (a, b) = (
+                summed.density_and_gradient(p).0,
+                united.density_and_gradient(p).0,
+            );
+            assert!(b > iso && (a - b).abs() < 0.02 * a, "{p}: {a} against {b}");
+        }
+        assert_eq!(united.has_velocities(), summed.has_velocities());
     }
 }

@@ -1,0 +1,156 @@
+//! Spray (issue 49): drops of a few particles flown off the liquid. The skin's own state
+//! filters the target in time, which a drop that has just left (the skin still joined to
+//! it by a neck) or has just flown in does not wait for: near spray particles the skin
+//! takes the frame's target's surface, as a per-frame mesher would, and keeps its own
+//! elsewhere.
+
+use glam::{IVec3, Vec3};
+use hashbrown::HashMap;
+
+use super::Skin;
+use crate::grid::{block_of, node_offset, Potential, BLOCK_DIM};
+use crate::target::Target;
+
+/// Spray particles (drops of a few flown off the liquid,
+/// [`crate::target::Density::finding_spray`]): within `inner` (world units) of one, the
+/// skin takes the frame's target's surface as it settles
+/// ([`Skin::settle_holding`]), blending back to its own by `outer`.
+#[derive(Clone, Debug, Default)]
+pub struct Spray {
+    /// The spray particles' positions.
+    pub points: Vec<Vec3>,
+    /// How near a spray particle the skin is the target's surface wholly.
+    pub inner: f32,
+    /// How near a spray particle the target's surface weighs at all.
+    pub outer: f32,
+}
+
+impl<P: Potential> Skin<P> {
+    /// Within `spray.inner` of any spray particle the potential becomes `target`'s
+    /// distance estimate; out to `spray.outer` it blends smoothly back to the skin's.
+    /// Whether anything changed (the band's crossed cells are then stored, the mesh and
+    /// the band's distance left to the caller).
+    pub(super) fn take_target_near(&mut self, target: &dyn Target, spray: &Spray) -> bool {
+        let Spray {
+            points,
+            inner,
+            outer,
+        } = spray;
+        let (inner, outer) = (*inner, *outer);
+        if points.is_empty() {
+            return false;
+        }
+        let (dx, w) = (self.params.dx, self.params.band_width);
+        let xf = self.xf;
+        let reach = (outer / dx).ceil() as i32;
+        let mut weights: HashMap<IVec3, f32> = HashMap::new();
+        for &p in points.iter() {
+            let c = ((p - xf.origin) / dx).round().as_ivec3();
+            for x in -reach..=reach {
+                for y in -reach..=reach {
+                    for z in -reach..=reach {
+                        let ijk = c + IVec3::new(x, y, z);
+                        let d = (xf.apply(ijk.as_vec3()) - p).length();
+                        let t = ((outer - d) / (outer - inner)).clamp(0.0, 1.0);
+                        if t > 0.0 {
+                            let t = t * t * (3.0 - 2.0 * t);
+                            let e = weights.entry(ijk).or_insert(0.0);
+                            *e = e.max(t);
+                        }
+                    }
+                }
+            }
+        }
+        let mut nodes: Vec<(IVec3, f32)> = weights.into_iter().collect();
+        nodes.sort_unstable_by_key(|(ijk, _)| ijk.to_array());
+        let mut changed = false;
+        for (ijk, t) in nodes {
+            let d = target.distance(xf.apply(ijk.as_vec3()));
+            let goal = (d / (w * dx)).clamp(-1.0, 1.0);
+            let coord = block_of(ijk);
+            let local = ijk - coord * BLOCK_DIM;
+            let id = self.grid.touch(coord);
+            let v = &mut self.grid.blocks_mut()[id.0 as usize].values
+                [node_offset(local.x, local.y, local.z)];
+            let f = v.to_f32();
+            let new = f + t * (goal - f);
+            if new != f {
+                *v = P::from_f32(new);
+                changed = true;
+            }
+        }
+        if !changed {
+            return false;
+        }
+        for _ in 0..4 {
+            let missing = super::band::unstored_crossed(&self.grid);
+            if missing.is_empty() {
+                break;
+            }
+            for c in missing {
+                self.grid.touch(c);
+            }
+        }
+        super::band::clamp_at_crossings(&mut self.grid, w, &mut self.rates);
+        crate::grid::tube::upkeep(&mut self.grid);
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::skin::SkinParams;
+    use crate::target::{Sphere, Union};
+
+    /// A skin on a ball, told that a drop 3 voxels off it is spray: within the inner
+    /// reach it holds the target's distance (the drop whole, apart), past the outer
+    /// reach what it held.
+    #[test]
+    fn near_spray_the_skin_is_the_target_elsewhere_its_own() {
+        let dx = 0.1;
+        let ball = Sphere {
+            center: Vec3::ZERO,
+            radius: 1.0,
+        };
+        let drop = Sphere {
+            center: Vec3::new(1.5, 0.013, 0.021),
+            radius: 0.2,
+        };
+        let mut skin: Skin<f32> = Skin::new(
+            &ball,
+            SkinParams {
+                dx,
+                ..SkinParams::default()
+            },
+        );
+        let before: Vec<(IVec3, f32)> = (-14..=14)
+            .flat_map(|x| (-14..=14).map(move |y| IVec3::new(x, y, 0)))
+            .map(|ijk| (ijk, skin.grid.value(ijk)))
+            .collect();
+        let target = Union(vec![Box::new(ball), Box::new(drop)]);
+        let spray = Spray {
+            points: vec![drop.center],
+            inner: 0.3,
+            outer: 0.45,
+        };
+        assert!(skin.take_target_near(&target, &spray));
+        skin.polygonize();
+        assert_eq!(skin.mesh.components(), 2);
+        let w = skin.params.band_width * dx;
+        for (ijk, was) in before {
+            let p = skin.xf.apply(ijk.as_vec3());
+            let now = skin.grid.value(ijk);
+            let d = p.distance(drop.center);
+            if d <= spray.inner {
+                let goal = (target.distance(p) / w).clamp(-1.0, 1.0);
+                assert!((now - goal).abs() < 1e-6, "{ijk}: {now} against {goal}");
+            } else if d >= spray.outer {
+                assert_eq!(now, was, "{ijk}");
+            }
+        }
+        // No spray, nothing taken.
+        let none = Spray::default();
+        assert!(!skin.take_target_near(&target, &none));
+    }
+}
