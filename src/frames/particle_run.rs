@@ -8,14 +8,13 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use super::{
-    AttributeChoice, AttributeSource, DataError, FrameError, FrameInput, InputFrames, Outputs,
-    ParticleFrame, ParticleInput, Spray,
+    AttributeChoice, DataError, FrameError, FrameInput, InputFrames, Outputs, ParticleFrame,
+    ParticleInput, Spray,
 };
 use crate::flow::{Flow, FlowMap, Timing};
 use crate::io::particles;
 use crate::particles::Particles;
 use crate::skin::{AnySkin, SkinParams};
-use crate::target::DensityGrid;
 
 /// What a particle run needs besides its outputs.
 pub struct ParticleRun<'a> {
@@ -107,16 +106,8 @@ impl ParticleRun<'_> {
         let mut last: Option<(i64, Particles)> = None;
         let mut noted = false;
         // Each frame is read once (its density is the skin's target and, with a
-        // density output, written as a fog volume on the way); the density comes back
-        // with whether it carries the frame's motion, what the particles hold (their
-        // number) and the attributes asked for.
-        type Read = (
-            DensityGrid,
-            bool,
-            f64,
-            Option<AttributeSource>,
-            Vec<glam::Vec3>,
-        );
+        // density output, written as a fog volume on the way); it comes back with what
+        // its particles hold (their number), the particles kept to match the next's.
         // The sequence's first frame sets the volume held: every run, chunk and resume
         // of the shot holds the same (this run's first frame's is measured below).
         let reference_share = match self.reference_frame() {
@@ -127,7 +118,7 @@ impl ParticleRun<'_> {
         };
         let read_ahead = source.reads_ahead();
         let (inner, outer) = self.particles.spray_reach();
-        let mut frame_at = |frame: i64| -> Result<Read, FrameError> {
+        let mut frame_at = |frame: i64| -> Result<(ParticleFrame, f64), FrameError> {
             let Some((cloud, path)) = source.particles(frame)? else {
                 return Err(source.missing(frame));
             };
@@ -141,35 +132,31 @@ impl ParticleRun<'_> {
                 true => &quiet,
                 false => self.particles,
             };
-            let ParticleFrame {
-                density,
-                particles,
-                carried,
-                note: said,
-                attributes,
-                spray,
-            } = reader.frame_of(cloud, &path, frame, before.as_ref(), duration)?;
+            let mut read = reader.frame_of(cloud, &path, frame, before.as_ref(), duration)?;
             // Said once: a cache that strays does so on many frames.
-            if let Some(line) = said.filter(|_| !noted) {
+            if let Some(line) = read.note.take().filter(|_| !noted) {
                 note(line);
                 noted = true;
             }
+            let particles = std::mem::take(&mut read.particles);
             let count = held(&particles, reader);
             last = Some((frame, particles));
-            Ok((density, carried, count, attributes, spray))
+            Ok((read, count))
         };
         // The skin starts on the first frame's density, one solid: the small voids of a
         // density whose kernel barely spans the spacing would each become a skin to remove.
-        let (mut first, _, count, first_attributes, first_spray) = frame_at(range.0)?;
-        first.fill_voids(self.particles.void_volume());
-        let skin = AnySkin::try_new(&first, self.params)?;
+        let (mut first, count) = frame_at(range.0)?;
+        first.density.fill_voids(self.particles.void_volume());
+        let skin = AnySkin::try_new(&first.density, self.params)?;
         let share = match self.hold_volume {
             false => None,
             true => reference_share.or(Some(skin.stats().volume / count)),
         }
         .filter(|s| s.is_finite() && *s > 0.0);
-        // The loop asks for the first frame once more, for its velocity.
-        let mut first = Some((Arc::new(first), first_attributes, first_spray));
+        // The loop asks for the first frame once more, for its velocity (the skin starts
+        // on it: not carried).
+        first.carried = false;
+        let mut first = Some(first);
         super::run(
             range,
             write_from,
@@ -177,15 +164,18 @@ impl ParticleRun<'_> {
             (self.fps, self.timing),
             outputs,
             (read_ahead, |frame| {
-                let (density, carried, count, attributes, spray) = match first.take() {
-                    Some((grid, attributes, spray)) if frame == range.0 => {
-                        (grid, false, count, attributes, spray)
-                    }
-                    _ => {
-                        let (density, carried, count, attributes, spray) = frame_at(frame)?;
-                        (Arc::new(density), carried, count, attributes, spray)
-                    }
+                let (read, count) = match first.take() {
+                    Some(read) if frame == range.0 => (read, count),
+                    _ => frame_at(frame)?,
                 };
+                let ParticleFrame {
+                    density,
+                    carried,
+                    attributes,
+                    spray,
+                    ..
+                } = read;
+                let density = Arc::new(density);
                 // Particles matched from the frame before carry the skin by their own motion;
                 // particles that carry velocities only, by those (§7).
                 let flow = (!carried && density.has_velocities())
