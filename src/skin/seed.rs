@@ -164,7 +164,20 @@ impl<P: Potential> Skin<P> {
                 }
             }
         }
-        // As at a start: every crossed cell stored, its corners in the band.
+        self.store_crossed_cells();
+        // The seeds hold the target's own distance estimate (first order for densities):
+        // made a distance like the rest of the band before anything reads or writes it.
+        for _ in 0..3 {
+            super::band::renormalize(&mut self.grid, w, 0.0, &mut self.rates);
+            crate::grid::tube::upkeep(&mut self.grid);
+        }
+        self.polygonize();
+        wanted.len()
+    }
+
+    /// After nodes were set from outside the skin's own motion (seeds, spray): as at a
+    /// start, every crossed cell stored, its corners in the band.
+    pub(super) fn store_crossed_cells(&mut self) {
         for _ in 0..4 {
             let missing = super::band::unstored_crossed(&self.grid);
             if missing.is_empty() {
@@ -174,16 +187,9 @@ impl<P: Potential> Skin<P> {
                 self.grid.touch(c);
             }
         }
+        let w = self.params.band_width;
         super::band::clamp_at_crossings(&mut self.grid, w, &mut self.rates);
         crate::grid::tube::upkeep(&mut self.grid);
-        // The seeds hold the target's own distance estimate (first order for densities):
-        // made a distance like the rest of the band before anything reads or writes it.
-        for _ in 0..3 {
-            super::band::renormalize(&mut self.grid, w, 0.0, &mut self.rates);
-            crate::grid::tube::upkeep(&mut self.grid);
-        }
-        self.polygonize();
-        wanted.len()
     }
 
     /// Seeds for the target's pieces in blocks `near` the skin that lie wholly

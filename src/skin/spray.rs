@@ -43,6 +43,7 @@ impl<P: Potential> Skin<P> {
         let (dx, w) = (self.params.dx, self.params.band_width);
         let xf = self.xf;
         let reach = (outer / dx).ceil() as i32;
+        let blend = (outer - inner).max(f32::MIN_POSITIVE);
         let mut weights: HashMap<IVec3, f32> = HashMap::new();
         for &p in points.iter() {
             let c = ((p - xf.origin) / dx).round().as_ivec3();
@@ -51,7 +52,7 @@ impl<P: Potential> Skin<P> {
                     for z in -reach..=reach {
                         let ijk = c + IVec3::new(x, y, z);
                         let d = (xf.apply(ijk.as_vec3()) - p).length();
-                        let t = ((outer - d) / (outer - inner)).clamp(0.0, 1.0);
+                        let t = ((outer - d) / blend).clamp(0.0, 1.0);
                         if t > 0.0 {
                             let t = t * t * (3.0 - 2.0 * t);
                             let e = weights.entry(ijk).or_insert(0.0);
@@ -82,17 +83,7 @@ impl<P: Potential> Skin<P> {
         if !changed {
             return false;
         }
-        for _ in 0..4 {
-            let missing = super::band::unstored_crossed(&self.grid);
-            if missing.is_empty() {
-                break;
-            }
-            for c in missing {
-                self.grid.touch(c);
-            }
-        }
-        super::band::clamp_at_crossings(&mut self.grid, w, &mut self.rates);
-        crate::grid::tube::upkeep(&mut self.grid);
+        self.store_crossed_cells();
         true
     }
 }
