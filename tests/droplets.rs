@@ -8,9 +8,6 @@
 
 mod common;
 
-use std::path::Path;
-
-use activeskin::mesh::{piece_labels, Mesh};
 use activeskin::particles::Particles;
 use glam::Vec3;
 
@@ -65,63 +62,16 @@ fn gap(frame: i64) -> f32 {
     2.0 + RISE * (frame - 1) as f32
 }
 
-/// Each piece of `mesh`: its enclosed volume and centroid, smallest first.
-fn pieces(mesh: &Mesh) -> Vec<(f64, Vec3)> {
-    let labels = piece_labels(mesh);
-    let n = labels.iter().max().map_or(0, |&l| l as usize + 1);
-    let mut found = vec![(0.0f64, Vec3::ZERO, 0usize); n];
-    for t in &mesh.triangles {
-        let [a, b, c] = t.map(|i| mesh.positions[i as usize].as_dvec3());
-        found[labels[t[0] as usize] as usize].0 += a.dot(b.cross(c)) / 6.0;
-    }
-    for (p, &label) in mesh.positions.iter().zip(&labels) {
-        let piece = &mut found[label as usize];
-        (piece.1, piece.2) = (piece.1 + *p, piece.2 + 1);
-    }
-    let mut out: Vec<(f64, Vec3)> = found
-        .into_iter()
-        .filter(|piece| piece.2 > 0)
-        .map(|(v, sum, n)| (v, sum / n as f32))
-        .collect();
-    out.sort_by(|a, b| a.0.total_cmp(&b.0));
-    out
-}
-
-fn run(dir: &Path) -> Vec<Mesh> {
-    for f in 1..=FRAMES {
-        let path = dir.join(format!("p_{f}.ply"));
-        activeskin::io::ply::write_particles(&path, &frame(f)).unwrap();
-    }
-    let (input, meshes) = (dir.join("p_$F.ply"), dir.join("m.####.obj"));
-    let radius = R.to_string();
-    let out = common::activeskin(&[
-        "particles",
-        "--particles",
-        input.to_str().unwrap(),
-        "--radius",
-        &radius,
-        "--voxel-size",
-        &radius,
-        "--mesh",
-        meshes.to_str().unwrap(),
-        "-q",
-    ]);
-    common::assert_ok(&out);
-    (1..=FRAMES)
-        .map(|f| activeskin::io::obj::read(&dir.join(format!("m.{f:04}.obj"))).unwrap())
-        .collect()
-}
-
 #[test]
 fn a_drop_leaving_the_liquid_is_apart_on_the_frame_it_is() {
     let dir = common::scratch();
-    let meshes = run(dir.path());
+    let meshes = common::particle_shot(dir.path(), FRAMES, frame, R, &[]);
     let share = f64::from(2.0 * R).powi(3);
     for (k, mesh) in meshes.iter().enumerate() {
         let f = k as i64 + 1;
         let check = mesh.check();
         assert!(check.is_clean(), "frame {f}: {check}");
-        let found = pieces(mesh);
+        let found = common::mesh_pieces(mesh);
         // Part of the pool while a particle of its surface; apart past the link.
         let apart = gap(f) > 3.25;
         assert_eq!(

@@ -6,10 +6,6 @@
 
 mod common;
 
-use std::collections::HashMap;
-use std::path::Path;
-
-use activeskin::mesh::Mesh;
 use activeskin::particles::Particles;
 use glam::Vec3;
 
@@ -47,65 +43,24 @@ fn frame(frame: i64) -> Particles {
     }
 }
 
-/// Each piece of `mesh`: its enclosed volume and centroid.
-fn pieces(mesh: &Mesh) -> Vec<(f64, Vec3)> {
-    let labels = activeskin::mesh::piece_labels(mesh);
-    let mut found: HashMap<u32, (f64, Vec3, usize)> = HashMap::new();
-    for t in &mesh.triangles {
-        let [a, b, c] = t.map(|i| mesh.positions[i as usize].as_dvec3());
-        found.entry(labels[t[0] as usize]).or_default().0 += a.dot(b.cross(c)) / 6.0;
-    }
-    for (p, label) in mesh.positions.iter().zip(&labels) {
-        let piece = found.get_mut(label).unwrap();
-        (piece.1, piece.2) = (piece.1 + *p, piece.2 + 1);
-    }
-    let mut out: Vec<(f64, Vec3)> = found
-        .into_values()
-        .map(|(v, sum, n)| (v, sum / n as f32))
-        .collect();
-    out.sort_by(|a, b| a.0.total_cmp(&b.0));
-    out
-}
-
-fn run(dir: &Path) -> Vec<Mesh> {
-    for f in 1..=FRAMES {
-        let path = dir.join(format!("p_{f}.ply"));
-        activeskin::io::ply::write_particles(&path, &frame(f)).unwrap();
-    }
-    let (input, meshes) = (dir.join("p_$F.ply"), dir.join("m.####.obj"));
-    let radius = R.to_string();
-    let out = common::activeskin(&[
-        "particles",
-        "--particles",
-        input.to_str().unwrap(),
-        "--radius",
-        &radius,
-        "--voxel-size",
-        &radius,
-        // The carry alone: the smoothing's volume hold is another matter.
-        "--smooth",
-        "0",
-        "--mesh",
-        meshes.to_str().unwrap(),
-        "-q",
-    ]);
-    common::assert_ok(&out);
-    (1..=FRAMES)
-        .map(|f| activeskin::io::obj::read(&dir.join(format!("m.{f:04}.obj"))).unwrap())
-        .collect()
-}
-
 #[test]
 fn a_drop_flying_over_a_pool_at_rest_is_carried() {
     let dir = common::scratch();
-    let meshes = run(dir.path());
+    let meshes = common::particle_shot(
+        dir.path(),
+        FRAMES,
+        frame,
+        R,
+        // The carry alone: the smoothing's volume hold is another matter.
+        &["--smooth", "0"],
+    );
     let mut first = None;
     for (k, mesh) in meshes.iter().enumerate() {
         let f = k as i64 + 1;
         let check = mesh.check();
         assert!(check.is_clean(), "frame {f}: {check}");
         // The pool and the drop, and no ghost of the drop where it was.
-        let found = pieces(mesh);
+        let found = common::mesh_pieces(mesh);
         assert_eq!(found.len(), 2, "frame {f}: pieces {found:?}");
         let (volume, centre) = found[0];
         let particles = frame(f).positions;

@@ -338,3 +338,60 @@ pub fn lattice_ball(at: Vec3, spacing: f32, cells: i32) -> Vec<Vec3> {
     }
     points
 }
+
+/// Each piece of `mesh`: its enclosed volume and the centroid of its vertices, smallest
+/// first.
+pub fn mesh_pieces(mesh: &Mesh) -> Vec<(f64, Vec3)> {
+    let labels = activeskin::mesh::piece_labels(mesh);
+    let n = labels.iter().max().map_or(0, |&l| l as usize + 1);
+    let mut found = vec![(0.0f64, Vec3::ZERO, 0usize); n];
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| mesh.positions[i as usize].as_dvec3());
+        found[labels[t[0] as usize] as usize].0 += a.dot(b.cross(c)) / 6.0;
+    }
+    for (p, &label) in mesh.positions.iter().zip(&labels) {
+        let piece = &mut found[label as usize];
+        (piece.1, piece.2) = (piece.1 + *p, piece.2 + 1);
+    }
+    let mut out: Vec<(f64, Vec3)> = found
+        .into_iter()
+        .filter(|piece| piece.2 > 0)
+        .map(|(v, sum, n)| (v, sum / n as f32))
+        .collect();
+    out.sort_by(|a, b| a.0.total_cmp(&b.0));
+    out
+}
+
+/// Frames 1..=`frames` of `frame` written as PLY into `dir`, run through `particles` at
+/// voxel = `radius` with `extra` options, meshed: the meshes read back.
+pub fn particle_shot(
+    dir: &Path,
+    frames: i64,
+    frame: impl Fn(i64) -> activeskin::particles::Particles,
+    radius: f32,
+    extra: &[&str],
+) -> Vec<Mesh> {
+    for f in 1..=frames {
+        let path = dir.join(format!("p_{f}.ply"));
+        activeskin::io::ply::write_particles(&path, &frame(f)).unwrap();
+    }
+    let (input, meshes) = (dir.join("p_$F.ply"), dir.join("m.####.obj"));
+    let radius = radius.to_string();
+    let mut args = vec![
+        "particles",
+        "--particles",
+        input.to_str().unwrap(),
+        "--radius",
+        &radius,
+        "--voxel-size",
+        &radius,
+        "--mesh",
+        meshes.to_str().unwrap(),
+        "-q",
+    ];
+    args.extend(extra);
+    assert_ok(&activeskin(&args));
+    (1..=frames)
+        .map(|f| activeskin::io::obj::read(&dir.join(format!("m.{f:04}.obj"))).unwrap())
+        .collect()
+}
