@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use activeskin::io::mesh::VertexValues;
 use activeskin::io::usd::Shot;
+use activeskin::mesh::Mesh;
 use activeskin::particles::{Attribute, Particles};
 use activeskin::render::Up;
 use glam::Vec3;
@@ -39,35 +40,8 @@ fn measure(
     lines: &mut Vec<String>,
     report: &mut serde_json::Map<String, serde_json::Value>,
 ) -> anyhow::Result<()> {
-    std::fs::create_dir_all(root)?;
     let r = 0.005f32;
-    let (lattice, _) = lattice_ball(1_000_000, r);
-    let n = lattice.len();
-    for frame in 1..=FRAMES {
-        let shift = Vec3::X * (4.0 * r * frame as f32);
-        let positions: Vec<Vec3> = lattice.iter().map(|&p| p + shift).collect();
-        let particles = Particles {
-            ids: Some((0..n as i64).collect()),
-            attributes: vec![
-                Attribute {
-                    name: "temperature".into(),
-                    components: 1,
-                    values: positions.iter().map(|p| 300.0 + 50.0 * p.x).collect(),
-                },
-                Attribute {
-                    name: "vorticity".into(),
-                    components: 3,
-                    values: positions.iter().flat_map(|p| [p.y, -p.x, 2.0]).collect(),
-                },
-            ],
-            positions,
-            ..Particles::default()
-        };
-        activeskin::io::ply::write_particles(
-            &root.join(format!("cloud.{frame:04}.ply")),
-            &particles,
-        )?;
-    }
+    let n = write_cloud(root, r)?;
     let run = |frames: i64, mesh: &str, extra: &[&str]| {
         timed(
             Command::new(std::env::current_exe()?)
@@ -109,40 +83,8 @@ fn measure(
         .iter()
         .map(|p| Vec3::new(p.y, p.z, p.x) * 0.3)
         .collect();
-    let attributes = [
-        Attribute {
-            name: "temperature".into(),
-            components: 1,
-            values: mesh.positions.iter().map(|p| 300.0 + 50.0 * p.x).collect(),
-        },
-        Attribute {
-            name: "vorticity".into(),
-            components: 3,
-            values: mesh
-                .positions
-                .iter()
-                .flat_map(|p| [p.y, -p.x, 2.0])
-                .collect(),
-        },
-    ];
-    let best = |write: &dyn Fn() -> anyhow::Result<()>| -> anyhow::Result<f64> {
-        let mut best = f64::INFINITY;
-        for _ in 0..3 {
-            let start = Instant::now();
-            write()?;
-            best = best.min(start.elapsed().as_secs_f64() * 1e3);
-        }
-        Ok(best)
-    };
-    let obj = best(&|| Ok(activeskin::io::obj::write(&mesh, &root.join("w.obj"))?))?;
-    let shot = Shot::new(&root.join("w.usda"), (1, 1), 24.0, Up::Y, 1.0);
-    std::fs::create_dir_all(shot.folder())?;
-    let usd_bare = best(&|| Ok(shot.write_frame(1, &mesh, VertexValues::default())?))?;
-    let values = VertexValues {
-        velocities: Some(&velocities),
-        attributes: &attributes,
-    };
-    let usd_full = best(&|| Ok(shot.write_frame(1, &mesh, values)?))?;
+    let attributes = sample_attributes(&mesh.positions);
+    let (obj, usd_bare, usd_full) = time_writers(root, &mesh, &velocities, &attributes)?;
     lines.push(format!(
         "outputs, one frame's mesh ({} vertices)   OBJ {obj:.0} ms, USD layer {usd_bare:.0} ms ({:.2}×), with velocities and 2 attributes {usd_full:.0} ms",
         mesh.positions.len(),
@@ -158,4 +100,72 @@ fn measure(
                "usd_to_obj_ratio": usd_bare / obj}),
     );
     Ok(())
+}
+
+/// A lattice ball of about a million particles of radius `r` moving 4 r a frame, with
+/// ids and two attributes, written as `cloud.####.ply` for [`FRAMES`] frames; its size.
+fn write_cloud(root: &Path, r: f32) -> anyhow::Result<usize> {
+    std::fs::create_dir_all(root)?;
+    let (lattice, _) = lattice_ball(1_000_000, r);
+    let n = lattice.len();
+    for frame in 1..=FRAMES {
+        let shift = Vec3::X * (4.0 * r * frame as f32);
+        let positions: Vec<Vec3> = lattice.iter().map(|&p| p + shift).collect();
+        let particles = Particles {
+            ids: Some((0..n as i64).collect()),
+            attributes: sample_attributes(&positions),
+            positions,
+            ..Particles::default()
+        };
+        activeskin::io::ply::write_particles(
+            &root.join(format!("cloud.{frame:04}.ply")),
+            &particles,
+        )?;
+    }
+    Ok(n)
+}
+
+/// A scalar and a vector attribute varying over `positions`.
+fn sample_attributes(positions: &[Vec3]) -> Vec<Attribute> {
+    vec![
+        Attribute {
+            name: "temperature".into(),
+            components: 1,
+            values: positions.iter().map(|p| 300.0 + 50.0 * p.x).collect(),
+        },
+        Attribute {
+            name: "vorticity".into(),
+            components: 3,
+            values: positions.iter().flat_map(|p| [p.y, -p.x, 2.0]).collect(),
+        },
+    ]
+}
+
+/// The best of three writes of `mesh` (ms): OBJ, a USD layer, a USD layer with
+/// `velocities` and `attributes`.
+fn time_writers(
+    root: &Path,
+    mesh: &Mesh,
+    velocities: &[Vec3],
+    attributes: &[Attribute],
+) -> anyhow::Result<(f64, f64, f64)> {
+    let best = |write: &dyn Fn() -> anyhow::Result<()>| -> anyhow::Result<f64> {
+        let mut best = f64::INFINITY;
+        for _ in 0..3 {
+            let start = Instant::now();
+            write()?;
+            best = best.min(start.elapsed().as_secs_f64() * 1e3);
+        }
+        Ok(best)
+    };
+    let obj = best(&|| Ok(activeskin::io::obj::write(mesh, &root.join("w.obj"))?))?;
+    let shot = Shot::new(&root.join("w.usda"), (1, 1), 24.0, Up::Y, 1.0);
+    std::fs::create_dir_all(shot.folder())?;
+    let usd_bare = best(&|| Ok(shot.write_frame(1, mesh, VertexValues::default())?))?;
+    let values = VertexValues {
+        velocities: Some(velocities),
+        attributes,
+    };
+    let usd_full = best(&|| Ok(shot.write_frame(1, mesh, values)?))?;
+    Ok((obj, usd_bare, usd_full))
 }
