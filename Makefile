@@ -45,7 +45,8 @@ farm-test: deps
 	fi
 
 # The Blender add-on in Blender without a window (Debian's Blender and numpy, installed
-# when missing, as root).
+# when missing, as root); then the zip `make blender-addon` writes installed as an
+# extension in Blender 4.5 LTS and 5.0 from pip (bpy, CPython 3.11; ~400 MB each, once).
 blender-test: deps
 	@if ! command -v blender >/dev/null && [ "$$(id -u)" -ne 0 ]; then \
 		echo "blender-test: skipped, Blender is not installed: sudo make blender-test"; \
@@ -89,15 +90,17 @@ wheel-vdb: deps $(MATURIN)
 	$(MATURIN) build --release -m python/Cargo.toml --features vdb --auditwheel skip -o target/wheels-vdb
 
 # The add-on as one zip with the wheel inside: Blender 3.x installs it from Preferences >
-# Add-ons > Install; 4.2+ as an extension (the manifest lists the wheel).
+# Add-ons > Install; 4.2+ as an extension (the manifest lists the wheel). In ADDON_DIR
+# (a variable for tests/python.rs, which makes it in a clean environment).
+ADDON_DIR ?= target/blender
 blender-addon: wheel
-	rm -rf target/blender/activeskin_blender && mkdir -p target/blender/activeskin_blender/wheels
-	cp blender/activeskin_blender/__init__.py target/blender/activeskin_blender/
-	cp $(WHEELS)/activeskin-*.whl target/blender/activeskin_blender/wheels/
-	sed "s|^wheels = \[\]|wheels = [$$(cd target/blender/activeskin_blender && ls wheels/*.whl | sed 's|.*|\"./&\"|' | paste -sd,)]|" \
-		blender/activeskin_blender/blender_manifest.toml > target/blender/activeskin_blender/blender_manifest.toml
-	cd target/blender && rm -f activeskin_blender.zip && python3 -m zipfile -c activeskin_blender.zip activeskin_blender
-	@echo "target/blender/activeskin_blender.zip: Blender > Preferences > Add-ons > Install"
+	rm -rf $(ADDON_DIR)/activeskin_blender && mkdir -p $(ADDON_DIR)/activeskin_blender/wheels
+	cp blender/activeskin_blender/__init__.py $(ADDON_DIR)/activeskin_blender/
+	cp $(WHEELS)/activeskin-*.whl $(ADDON_DIR)/activeskin_blender/wheels/
+	sed "s|^wheels = \[\]|wheels = [$$(cd $(ADDON_DIR)/activeskin_blender && ls wheels/*.whl | sed 's|.*|\"./&\"|' | paste -sd,)]|" \
+		blender/activeskin_blender/blender_manifest.toml > $(ADDON_DIR)/activeskin_blender/blender_manifest.toml
+	cd $(ADDON_DIR) && rm -f activeskin_blender.zip && python3 -m zipfile -c activeskin_blender.zip activeskin_blender
+	@echo "$(ADDON_DIR)/activeskin_blender.zip: Blender > Preferences > Add-ons > Install (3.x), Get Extensions > Install from Disk (4.2+)"
 
 lint:
 	$(CARGO) fmt --all -- --check

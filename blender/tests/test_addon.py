@@ -17,6 +17,7 @@ skins written, the surface placed where Blender's own liquid mesh is. Frame 16 o
 splash rendered with Cycles, motion blur on, into RENDER (a PNG), not empty.
 """
 
+import importlib
 import math
 import os
 import struct
@@ -26,12 +27,23 @@ import sys
 import bpy
 import numpy as np
 
-parent, cache, splash, render = sys.argv[sys.argv.index("--") + 1 :]
+addon, cache, splash, render = sys.argv[sys.argv.index("--") + 1 :]
 binary = os.environ["ACTIVESKIN_BIN"]
-sys.path.insert(0, parent)
-import activeskin_blender  # noqa: E402
+if addon.endswith(".zip"):
+    # Blender 4.2+: the zip `make blender-addon` writes, installed as an extension (its
+    # wheel installed by Blender from the manifest) into BLENDER_USER_RESOURCES, enabled.
+    installed = bpy.ops.extensions.package_install_files(
+        filepath=addon, repo="user_default", enable_on_install=True
+    )
+    assert installed == {"FINISHED"}, installed
+    activeskin_blender = importlib.import_module("bl_ext.user_default.activeskin")
+    assert hasattr(bpy.types.Scene, "activeskin"), "the extension did not register"
+else:
+    sys.path.insert(0, addon)
+    import activeskin_blender  # noqa: E402
 
-activeskin_blender.register()
+    activeskin_blender.register()
+print(f"Blender {bpy.app.version_string}, the add-on from {addon}")
 scene = bpy.context.scene
 scene.frame_start, scene.frame_end = 1, 8
 
@@ -154,6 +166,30 @@ for name in usd_files:
             open(os.path.join(bpy.path.abspath(s.cache_dir), name), "rb") as b:
         assert a.read() == b.read(), f"{name}: the add-on's USD differs from the command's"
 print(f"splash USD shot: {len(usd_files)} files, the command's byte for byte")
+
+# Read back by Blender's own USD importer (built into 4.2+; Debian's 3.4 is built without
+# USD): a mesh sequence cache with the command's mesh and a `velocity` attribute a frame.
+if bpy.app.build_options.usd:
+    before = set(bpy.data.objects)
+    assert bpy.ops.wm.usd_import(filepath=os.path.join(bpy.path.abspath(s.cache_dir), "skin.usda")) == {"FINISHED"}
+    imported = [o for o in bpy.data.objects if o not in before and o.type == "MESH"]
+    assert len(imported) == 1, imported
+    assert [m.type for m in imported[0].modifiers] == ["MESH_SEQUENCE_CACHE"], imported[0].modifiers
+    for frame in (6, 16):
+        scene.frame_set(frame)
+        shown_usd = imported[0].evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+        with open(cli.format(frame=frame)) as f:
+            theirs = sum(line.startswith("v ") for line in f)
+        assert len(shown_usd.vertices) == theirs, (frame, len(shown_usd.vertices), theirs)
+        assert "velocity" in shown_usd.attributes, [a.name for a in shown_usd.attributes]
+        v = np.empty(3 * len(shown_usd.vertices), np.float32)
+        shown_usd.attributes["velocity"].data.foreach_get("vector", v)
+        mean = np.linalg.norm(v.reshape(-1, 3), axis=1).mean()
+        assert 0.05 < mean < 10.0, (frame, mean)
+        print(f"USD import, frame {frame}: {len(shown_usd.vertices)} vertices, velocity {mean:.2f} m/s")
+    imported[0].hide_render = True
+elif bpy.app.version >= (4, 2, 0):
+    raise AssertionError("Blender 4.2+ without USD")
 
 
 def obj_vertices(path):
@@ -305,11 +341,28 @@ scene.frame_set(16)
 bpy.ops.render.render(write_still=True)
 image = bpy.data.images.load(render)
 
-pixels = np.empty(len(image.pixels), np.float32)
-image.pixels.foreach_get(pixels)
-covered = float((pixels[3::4] > 0.5).mean())
+
+
+def alpha(image):
+    pixels = np.empty(len(image.pixels), np.float32)
+    image.pixels.foreach_get(pixels)
+    return pixels[3::4]
+
+
+blurred = alpha(image)
+covered = float((blurred > 0.5).mean())
 assert covered > 0.01, covered
 print(f"rendered frame 16: the surface covers {100 * covered:.1f} % of the image")
+# The same frame without motion blur: the blur (from the mesh's `velocity`) smears the
+# moving splash's edges, so more pixels are partly covered.
+scene.render.use_motion_blur = False
+scene.render.filepath = render.replace(".png", "_sharp.png")
+bpy.ops.render.render(write_still=True)
+sharp = alpha(bpy.data.images.load(scene.render.filepath))
+partial = [int(((a > 0.05) & (a < 0.95)).sum()) for a in (blurred, sharp)]
+print(f"partly covered pixels: {partial[0]} blurred, {partial[1]} sharp")
+assert partial[0] > 1.3 * partial[1], partial
+scene.render.use_motion_blur = True
 
 # A Mantaflow liquid baked in the scene (a ball dropped into a pool, 32 cells, 8 frames),
 # skinned from its domain's OpenVDB cache: the command's meshes and VDB skins, the surface

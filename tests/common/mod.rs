@@ -288,6 +288,13 @@ pub fn exr_channels(path: &Path) -> ((usize, usize), std::collections::HashMap<S
 /// `packages` from pip the first time (when `probe`, a Python statement, fails in it):
 /// its Python. Nothing is installed by hand.
 pub fn venv(name: &str, packages: &[&str], probe: &str) -> std::path::PathBuf {
+    venv_of("python3", name, packages, probe)
+}
+
+/// [`venv`] made by the interpreter `python` (a packages' CPython: `bpy` wants one
+/// version).
+pub fn venv_of(python: &str, name: &str, packages: &[&str], probe: &str) -> std::path::PathBuf {
+    let interpreter = python;
     let venv = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
     let python = venv.join("bin/python");
     let ready = |python: &Path| {
@@ -297,11 +304,11 @@ pub fn venv(name: &str, packages: &[&str], probe: &str) -> std::path::PathBuf {
             .is_ok_and(|o| o.status.success())
     };
     if !ready(&python) {
-        let made = Command::new("python3")
+        let made = Command::new(interpreter)
             .args(["-m", "venv", "--clear"])
             .arg(&venv)
             .output()
-            .expect("python3 (make deps installs python3-venv)");
+            .unwrap_or_else(|e| panic!("{interpreter} (make deps installs python3-venv): {e}"));
         assert_ok(&made);
         let installed = Command::new(&python)
             .args([
