@@ -73,11 +73,13 @@ pub enum Field {
     Resume,
     /// The memory budget.
     MaxMemory,
+    /// The box the meshes are cut to.
+    Region,
 }
 
 impl Field {
     /// Every field, for looking one up by name.
-    pub const ALL: [Field; 32] = [
+    pub const ALL: [Field; 33] = [
         Field::Radius,
         Field::SmoothingLength,
         Field::Iso,
@@ -110,6 +112,7 @@ impl Field {
         Field::DensityOut,
         Field::Resume,
         Field::MaxMemory,
+        Field::Region,
     ];
 
     /// The library's name: snake case, as the settings' structs and Python's keywords
@@ -148,6 +151,7 @@ impl Field {
             Field::DensityOut => "density_out",
             Field::Resume => "resume",
             Field::MaxMemory => "max_memory",
+            Field::Region => "region",
         }
     }
 

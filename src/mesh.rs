@@ -5,10 +5,12 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 mod check;
+mod clip;
 mod nearest;
 mod relax;
 
 pub use check::MeshCheck;
+pub use clip::{clip_to_box, VertexChannel};
 pub(crate) use nearest::point_triangle_distance;
 pub use nearest::{hausdorff, mean_distance, TriangleIndex};
 pub use relax::{relax_on_surface, Surface};

@@ -24,6 +24,7 @@ fn spec() -> LevelSetSpec {
         first_frame: 1,
         seed: true,
         init: None,
+        region: None,
     }
 }
 

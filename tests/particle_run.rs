@@ -62,6 +62,7 @@ fn run_library(into: &Path) {
         velocities: true,
         usd: None,
         surfaces: None,
+        region: None,
     };
     let mut outputs = Outputs::new(&spec, (1, 4)).unwrap();
     let run = ParticleRun {

@@ -68,6 +68,7 @@ fn spec() -> StreamSpec {
         velocity_grid: false,
         first_frame: 1,
         reference: None,
+        region: None,
     }
 }
 

@@ -112,6 +112,12 @@ class ActiveSkinSettings(bpy.types.PropertyGroup):
         default="PARTICLES",
     )
     emitter: bpy.props.PointerProperty(name="Object", type=bpy.types.Object)
+    region: bpy.props.PointerProperty(
+        name="Region",
+        type=bpy.types.Object,
+        description="Cut the surface to this object's bounding box (a box, the liquid's "
+        "domain): open on its sides, as open water meets the frame; the skin is the whole",
+    )
     particle_system: bpy.props.StringProperty(
         name="Particle system", description="Its name; empty for the object's active one"
     )
@@ -231,6 +237,22 @@ def _mantaflow_placement(domain, settings):
     return lowest + mathutils.Vector((0.5 * dx,) * 3)
 
 
+def _region_of(settings):
+    """The region object's world bounding box in the skin's coordinates (a Mantaflow
+    cache's start at its placement), or None."""
+    box = settings.region
+    if box is None:
+        return None
+    corners = [box.matrix_world @ mathutils.Vector(c) for c in box.bound_box]
+    lo = [min(c[i] for c in corners) for i in range(3)]
+    hi = [max(c[i] for c in corners) for i in range(3)]
+    if settings.source == "MANTAFLOW" and settings.emitter is not None:
+        fluid, _ = _mantaflow_domain(settings)
+        at = _mantaflow_placement(settings.emitter, fluid)
+        lo, hi = ([v[i] - at[i] for i in range(3)] for v in (lo, hi))
+    return tuple(lo), tuple(hi)
+
+
 def _points_of(settings, depsgraph):
     """This frame's vertices of a mesh object as particles, in world space: positions, its
     `velocity` point attribute (units per second, what Blender's motion blur reads) and
@@ -320,6 +342,7 @@ class Bake:
                 beta=_tension(s),
                 fps=fps,
                 velocity_grid=s.write_vdb,
+                region=_region_of(s),
             )
         else:
             self.skin = activeskin.ParticleSkin(
@@ -331,6 +354,7 @@ class Bake:
                 fps=fps,
                 first_frame=self.first,
                 velocity_grid=s.write_vdb,
+                region=_region_of(s),
             )
         self.total = len(self.frames)
 
@@ -569,6 +593,7 @@ class ACTIVESKIN_PT_panel(bpy.types.Panel):
         if s.use_tension:
             layout.prop(s, "beta")
         layout.prop(s, "use_velocity")
+        layout.prop(s, "region")
         row = layout.row(align=True)
         row.prop(s, "frame_start")
         row.prop(s, "frame_end")

@@ -213,6 +213,29 @@ def check_against_the_command(what, frames=(6, 12, 24)):
 
 check_against_the_command("its files")
 
+# Cut to a box object's bounds: the command's `--region` meshes, open on the box's sides.
+corners = [(x, y, z) for x in (1.0, 1.5) for y in (0.0, 3.0) for z in (1.0, 1.62)]
+box = bpy.data.objects.new("region", bpy.data.meshes.new("region"))
+box.data.from_pydata(corners, [], [])
+scene.collection.objects.link(box)
+box.hide_render = True
+s.region = box
+s.write_usd = False
+s.cache_dir = os.path.join(cache, "splash_region")
+assert bpy.ops.activeskin.bake() == {"FINISHED"}
+whole_cli = cli
+cli = os.path.join(cache, "cli_region", "m.{frame:04d}.obj")
+subprocess.run(
+    [binary, "particles", "--particles", splash, "--radius", "0.04", "--alpha", "48",
+     "--region", "1.0,0,1.0,1.5,3,1.62", "--mesh", cli.replace("{frame:04d}", "####"), "-q"],
+    check=True,
+)
+check_against_the_command("its files in a region")
+assert max(v.co.x for v in bpy.data.objects["ActiveSkin"].data.vertices) <= 1.5
+cli = whole_cli
+s.region = None
+s.cache_dir = os.path.join(cache, "splash")
+
 # The splash as a particle system of the scene: its point cache, external, holds each
 # frame's particles (Blender's .bphys: "BPHYSICS", the type, the particle count, the data
 # kept — index, location, velocity — then each particle's), as tools that bring an SPH

@@ -152,3 +152,18 @@ pub(crate) fn attribute_values(
         )),
     }
 }
+
+/// `region=((x0, y0, z0), (x1, y1, z1))` (any two sequences of three numbers, a numpy
+/// (2, 3) array too) as a box; whether it holds anything the library checks.
+pub(crate) fn region_box(region: &Bound<'_, PyAny>) -> PyResult<activeskin::grid::Aabb> {
+    let corners: Vec<Vec<f32>> = region.extract().unwrap_or_default();
+    match corners[..] {
+        [ref lo, ref hi] if lo.len() == 3 && hi.len() == 3 => Ok(activeskin::grid::Aabb {
+            min: Vec3::from_slice(lo),
+            max: Vec3::from_slice(hi),
+        }),
+        _ => Err(PyValueError::new_err(
+            "region must be two corners, ((x0, y0, z0), (x1, y1, z1))",
+        )),
+    }
+}

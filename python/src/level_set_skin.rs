@@ -197,7 +197,7 @@ pub(crate) struct LevelSetSkin {
 #[pymethods]
 impl LevelSetSkin {
     #[new]
-    #[pyo3(signature = (*, voxel_size=None, alpha=DEFAULT_ALPHA, beta=None, smooth=None, volume_gain=0.0, area_gain=0.0, fps=DEFAULT_FPS, velocities=true, velocity_time="start", velocity_scale=1.0, iso=None, units="auto", first_frame=1, seed=true, init=None, spacing=None, origin=(0.0, 0.0, 0.0), grid=None, velocity_grid=false))]
+    #[pyo3(signature = (*, voxel_size=None, alpha=DEFAULT_ALPHA, beta=None, smooth=None, volume_gain=0.0, area_gain=0.0, fps=DEFAULT_FPS, velocities=true, velocity_time="start", velocity_scale=1.0, iso=None, units="auto", first_frame=1, seed=true, init=None, spacing=None, origin=(0.0, 0.0, 0.0), grid=None, velocity_grid=false, region=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -220,6 +220,7 @@ impl LevelSetSkin {
         origin: (f64, f64, f64),
         grid: Option<String>,
         velocity_grid: bool,
+        region: Option<Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let timing = match velocity_time {
             "start" => Timing::Start,
@@ -258,6 +259,7 @@ impl LevelSetSkin {
             first_frame,
             seed,
             init,
+            region: region.map(|r| region_box(&r)).transpose()?,
         };
         let stream = py
             .detach(|| LevelSetStream::start(spec))

@@ -27,7 +27,7 @@ pub(crate) struct ParticleSkin {
 #[pymethods]
 impl ParticleSkin {
     #[new]
-    #[pyo3(signature = (radius, *, voxel_size=None, alpha=DEFAULT_ALPHA, beta=None, smooth=None, smoothing_length=DEFAULT_SMOOTHING_LENGTH, iso=None, fps=DEFAULT_FPS, velocities=true, hold_volume=true, attributes=None, first_frame=1, ignore_radii=false, volume_reference=None, velocity_grid=false))]
+    #[pyo3(signature = (radius, *, voxel_size=None, alpha=DEFAULT_ALPHA, beta=None, smooth=None, smoothing_length=DEFAULT_SMOOTHING_LENGTH, iso=None, fps=DEFAULT_FPS, velocities=true, hold_volume=true, attributes=None, first_frame=1, ignore_radii=false, volume_reference=None, velocity_grid=false, region=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         radius: f32,
@@ -45,6 +45,7 @@ impl ParticleSkin {
         ignore_radii: bool,
         volume_reference: Option<Reference>,
         velocity_grid: bool,
+        region: Option<Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let defaults = ParticleInput::with_radius(radius);
         let choice = match attributes {
@@ -100,6 +101,7 @@ impl ParticleSkin {
             velocity_grid,
             first_frame,
             reference,
+            region: region.map(|r| region_box(&r)).transpose()?,
         };
         let stream = ParticleStream::start(spec).map_err(value_error)?;
         Ok(ParticleSkin {

@@ -193,6 +193,11 @@ pub struct OutputArgs {
     /// skin's own across it; `off` leaves it out.
     #[arg(long, value_name = "on|off", default_value = "on", action = clap::ArgAction::Set, value_parser = clap::builder::BoolishValueParser::new())]
     pub velocities: bool,
+    /// Cut the meshes (files, USD shot) to this box, world units: what lies outside is
+    /// left out, the surface open on the box's sides (open water, a tank's inside). The
+    /// skin, its VDBs, renders and stats' area and volume stay the whole surface's.
+    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true)]
+    pub region: Option<String>,
     /// No progress output.
     #[arg(long, short)]
     pub quiet: bool,
@@ -219,6 +224,7 @@ impl OutputArgs {
             velocities: self.velocities,
             usd: self.usd_spec()?,
             surfaces: None,
+            region: self.region.as_deref().map(region_arg).transpose()?,
         })
     }
 
@@ -248,4 +254,20 @@ pub struct Shot<'a> {
     pub outputs: &'a OutputArgs,
     /// Options every chunk adds, so that all read the shot alike.
     pub fixed: Vec<String>,
+}
+
+/// `--region X0,Y0,Z0,X1,Y1,Z1` as a box; whether it holds anything the library checks.
+fn region_arg(spec: &str) -> anyhow::Result<activeskin::grid::Aabb> {
+    let numbers: Vec<f32> = spec
+        .split(',')
+        .map(|n| n.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .unwrap_or_default();
+    let [x0, y0, z0, x1, y1, z1] = numbers[..] else {
+        usage!("--region must be six numbers X0,Y0,Z0,X1,Y1,Z1, got '{spec}'");
+    };
+    Ok(activeskin::grid::Aabb {
+        min: glam::Vec3::new(x0, y0, z0),
+        max: glam::Vec3::new(x1, y1, z1),
+    })
 }

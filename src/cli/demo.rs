@@ -48,6 +48,7 @@ fn outputs(dir: &Path, name: &str, quiet: bool) -> OutputArgs {
         usd: Some(dir.join(format!("{name}/{name}.usda"))),
         meters_per_unit: 1.0,
         shot_frames: None,
+        region: None,
     }
 }
 

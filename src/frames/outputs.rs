@@ -88,6 +88,9 @@ pub struct OutputSpec {
     pub usd: Option<UsdSpec>,
     /// Told of each frame's surface as it is written (the Python API hands it over).
     pub surfaces: Option<SurfaceSink>,
+    /// The box the meshes (files, USD, the surfaces told) are cut to, open on its sides;
+    /// the skin, its VDBs, renders and measures are the whole surface's.
+    pub region: Option<Aabb>,
 }
 
 /// A frame's surface as the outputs write it: the skin's mesh, the values at its
@@ -168,6 +171,7 @@ pub struct Outputs {
     /// Frames a second, for the USD stage's time codes.
     fps: f64,
     surfaces: Option<SurfaceSink>,
+    region: Option<Aabb>,
 }
 
 impl Outputs {
@@ -214,6 +218,9 @@ impl Outputs {
             return Err(UsageError::ResumeWithoutOut.into());
         }
         check_apart(spec, (first, last))?;
+        if let Some(region) = spec.region {
+            check_region(region)?;
+        }
         let usd_frames = usd.as_ref().map(|(_, shot)| shot.frame_pattern());
         let patterns = out.iter().chain(&mesh).chain(render.iter().map(|r| &r.0));
         for pattern in patterns.chain(&usd_frames) {
@@ -242,6 +249,7 @@ impl Outputs {
             usd: usd.map(|(u, shot)| (u, shot.frames, false)),
             fps: 24.0,
             surfaces: spec.surfaces.clone(),
+            region: spec.region,
         })
     }
 
@@ -322,8 +330,22 @@ impl Outputs {
             velocities: velocities.mesh.as_deref(),
             attributes: &velocities.attributes,
         };
+        let tolerance = 1e-3 * level_set.transform.voxel_size() as f32;
+        let cut = self
+            .region
+            .map(|region| cut_to_region(skin.mesh(), values, region, tolerance));
+        let (mesh, values) = match &cut {
+            Some((mesh, velocities, attributes)) => (
+                mesh,
+                crate::io::mesh::VertexValues {
+                    velocities: velocities.as_deref(),
+                    attributes,
+                },
+            ),
+            None => (skin.mesh(), values),
+        };
         if let Some(pattern) = &self.mesh {
-            crate::io::mesh::write_with_values(skin.mesh(), values, &pattern.path(frame))?;
+            crate::io::mesh::write_with_values(mesh, values, &pattern.path(frame))?;
         }
         if let Some((spec, frames, staged)) = &mut self.usd {
             let shot = usd::Shot::new(
@@ -337,12 +359,12 @@ impl Outputs {
                 shot.write_stage(&usd::Carried::of(&values))?;
                 *staged = true;
             }
-            shot.write_frame(frame, skin.mesh(), values)?;
+            shot.write_frame(frame, mesh, values)?;
         }
         if let Some(sink) = &self.surfaces {
             (sink.each)(&Surface {
                 frame,
-                mesh: skin.mesh(),
+                mesh,
                 values,
                 stats,
                 level_set,
@@ -368,9 +390,18 @@ impl Outputs {
         let ms = started.elapsed().as_secs_f64() * 1e3;
         // Measured on the mesh written (the settled skin's), like χ and the components.
         let check = if self.stats.is_some() {
-            skin.mesh().check()
+            mesh.check()
         } else {
             Default::default()
+        };
+        // Cut to a region, the mesh is open on its sides: manifold with that boundary.
+        let manifold = match self.region {
+            Some(_) => check.manifold_with_boundary(),
+            None => check.manifold(),
+        };
+        let clean = match self.region {
+            Some(_) => manifold && check.coincident == 0 && check.degenerate == 0,
+            None => check.is_clean(),
         };
         let mut line = serde_json::json!({
             "frame": frame,
@@ -382,8 +413,8 @@ impl Outputs {
             "volume": stats.volume,
             "euler_characteristic": stats.euler_characteristic,
             "components": stats.components,
-            "manifold": check.manifold(),
-            "clean": check.is_clean(),
+            "manifold": manifold,
+            "clean": clean,
             "milliseconds": ms,
         });
         if let Some(fields) = line.as_object_mut() {
@@ -478,6 +509,67 @@ pub fn write_usd_frame(
 }
 
 /// Makes an output folder (and those above it) when missing.
+/// `mesh` and its vertices' values cut to `region` ([`crate::mesh::clip_to_box`]).
+fn cut_to_region(
+    mesh: &crate::mesh::Mesh,
+    values: crate::io::mesh::VertexValues,
+    region: Aabb,
+    tolerance: f32,
+) -> (
+    crate::mesh::Mesh,
+    Option<Vec<glam::Vec3>>,
+    Vec<crate::particles::Attribute>,
+) {
+    use crate::mesh::VertexChannel;
+    let flat: Option<Vec<f32>> = values
+        .velocities
+        .map(|v| v.iter().flat_map(|v| v.to_array()).collect());
+    let channels: Vec<VertexChannel> = flat
+        .iter()
+        .map(|v| VertexChannel {
+            values: v,
+            components: 3,
+        })
+        .chain(values.attributes.iter().map(|a| VertexChannel {
+            values: &a.values,
+            components: a.components,
+        }))
+        .collect();
+    let (cut, mut channels) = crate::mesh::clip_to_box(mesh, region, &channels, tolerance);
+    let velocities = flat.map(|_| {
+        channels
+            .remove(0)
+            .chunks_exact(3)
+            .map(glam::Vec3::from_slice)
+            .collect()
+    });
+    let attributes = values
+        .attributes
+        .iter()
+        .zip(channels)
+        .map(|(a, values)| crate::particles::Attribute {
+            name: a.name.clone(),
+            components: a.components,
+            values,
+        })
+        .collect();
+    (cut, velocities, attributes)
+}
+
+/// A region that holds something: finite, each side longer than nothing.
+pub(crate) fn check_region(region: Aabb) -> Result<(), FrameError> {
+    let finite = region.min.is_finite() && region.max.is_finite();
+    if finite && region.min.cmplt(region.max).all() {
+        return Ok(());
+    }
+    let [a, b, c] = region.min.to_array();
+    let [d, e, f] = region.max.to_array();
+    Err(UsageError::EmptyRegion {
+        given: format!("({a}, {b}, {c}) to ({d}, {e}, {f})"),
+    }
+    .into())
+}
+
 fn create_folder(folder: &Path) -> Result<(), FrameError> {
     std::fs::create_dir_all(folder).map_err(|source| {
         DataError::CreateFolder {

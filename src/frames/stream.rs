@@ -13,12 +13,14 @@ use std::time::Duration;
 
 use glam::Vec3;
 
+use super::outputs::check_region;
 use super::{
     target_from_grid, DataError, FrameError, InputFrames, OutputSpec, Outputs, ParticleInput,
     ParticleRun, ParticleSource, Surface, SurfaceSink, TargetRead, TargetUnits, UsageError,
     VoxelVelocities,
 };
 use crate::flow::{GridFlow, Timing};
+use crate::grid::Aabb;
 use crate::mesh::Mesh;
 use crate::particles::{Attribute, Particles};
 use crate::sequence::FramePattern;
@@ -66,6 +68,8 @@ pub struct StreamSpec {
     /// starts later: the volume they stand for is held, as the command holds it on a
     /// run of later frames (none: the first frame handed over's).
     pub reference: Option<(i64, Particles)>,
+    /// The box the surfaces handed back are cut to ([`OutputSpec::region`]).
+    pub region: Option<Aabb>,
 }
 
 /// A skin advanced by frames of `T` handed over one at a time.
@@ -129,6 +133,7 @@ impl FrameStream<Particles> {
             }
         }
         spec.params.check()?;
+        spec.region.map(check_region).transpose()?;
         FrameStream::spawn(spec.velocity_grid, move |handed, sink| {
             let source = Handed {
                 frames: handed,
@@ -261,7 +266,7 @@ fn run(spec: StreamSpec, mut source: Handed, sink: SurfaceSink) -> Result<(), Fr
         // Open-ended: the loop ends when the caller hands no more frames.
         range: (first, i64::MAX),
     };
-    let mut outputs = sink_outputs(sink, spec.velocities, first)?;
+    let mut outputs = sink_outputs(sink, (spec.velocities, spec.region), first)?;
     let run = ParticleRun {
         input: &input,
         particles: &spec.particles,
@@ -275,8 +280,12 @@ fn run(spec: StreamSpec, mut source: Handed, sink: SurfaceSink) -> Result<(), Fr
 }
 
 /// Outputs that hand each frame's surface to `sink` (with the surface's velocity where
-/// `velocities`), from frame `first` on, and write nothing.
-fn sink_outputs(sink: SurfaceSink, velocities: bool, first: i64) -> Result<Outputs, FrameError> {
+/// `velocities`; cut to `region` when given), from frame `first` on, and write nothing.
+fn sink_outputs(
+    sink: SurfaceSink,
+    (velocities, region): (bool, Option<Aabb>),
+    first: i64,
+) -> Result<Outputs, FrameError> {
     let spec = OutputSpec {
         out: None,
         mesh: None,
@@ -291,6 +300,7 @@ fn sink_outputs(sink: SurfaceSink, velocities: bool, first: i64) -> Result<Outpu
         velocities,
         usd: None,
         surfaces: Some(sink),
+        region,
     };
     Outputs::new(&spec, (first, i64::MAX))
 }
@@ -334,6 +344,8 @@ pub struct LevelSetSpec {
     /// The shape the skin starts on (`skin --init`, `morph --from`), instead of the first
     /// frame's target.
     pub init: Option<LevelSetFrame>,
+    /// The box the surfaces handed back are cut to ([`OutputSpec::region`]).
+    pub region: Option<Aabb>,
 }
 
 /// A skin advanced by level sets (or fog volumes) handed over one frame at a time.
@@ -351,6 +363,7 @@ impl FrameStream<LevelSetFrame> {
         spec.physics
             .params(spec.physics.voxel_size.unwrap_or(1.0))
             .check()?;
+        spec.region.map(check_region).transpose()?;
         FrameStream::spawn(spec.velocity_grid, move |handed, sink| {
             run_level_sets(spec, handed, sink)
         })
@@ -374,7 +387,7 @@ fn run_level_sets(
     let run = super::LevelSetRun::start(source, first)?;
     let params = spec.physics.params(run.voxel_size());
     params.check()?;
-    let mut outputs = sink_outputs(sink, spec.velocities, first)?;
+    let mut outputs = sink_outputs(sink, (spec.velocities, spec.region), first)?;
     let plan = super::LevelSetPlan {
         range: (first, i64::MAX),
         write_from: first,

@@ -142,6 +142,13 @@ pub enum UsageError {
     /// A USD stage whose name its layers' names cannot hold.
     #[error("{} '{}': the stage's name cannot hold @ \" # % $ or \\ (its frames' layers are named after it)", Field::Usd, stage.display())]
     UsdName { stage: PathBuf },
+    /// A region that holds nothing.
+    #[error(
+        "{} must be a box with finite corners, the first below the second on every axis, got {}",
+        Field::Region,
+        given
+    )]
+    EmptyRegion { given: String },
     /// A USD shot that does not hold the frames written.
     #[error(
         "{} {}-{} must hold the frames written, {}-{}",

@@ -15,6 +15,12 @@ pub struct MeshCheck {
     pub triangles: usize,
     /// Undirected edges not in exactly two triangles of opposite directions.
     pub open_edges: usize,
+    /// Of the open edges, those in one triangle only: a boundary (a mesh cut to a
+    /// region ends there).
+    pub boundary_edges: usize,
+    /// Vertices whose triangles form more than one fan, open or closed (a mesh with a
+    /// boundary; 0 when an edge is in more than two triangles or two of one direction).
+    pub boundary_pinched: usize,
     /// Vertices whose triangles form more than one fan (or an open one).
     pub pinched_vertices: usize,
     /// Triangles on the same three points as another (by index or by position).
@@ -34,6 +40,12 @@ impl MeshCheck {
     /// Closed with one fan around each vertex.
     pub fn manifold(&self) -> bool {
         self.closed() && self.pinched_vertices == 0
+    }
+
+    /// Manifold but for a boundary: each edge in two triangles of opposite directions or
+    /// in one, one fan (closed, or open at the boundary) around each vertex.
+    pub fn manifold_with_boundary(&self) -> bool {
+        self.open_edges == self.boundary_edges && self.boundary_pinched == 0
     }
 
     /// Everything a downstream tool relies on.
@@ -73,11 +85,12 @@ impl Mesh {
     /// parallel sorts over millions of triangles.
     pub fn check(&self) -> MeshCheck {
         // An edge is closed when its triangles are exactly one pair running it opposite ways.
-        let open = self
-            .sorted_edges()
-            .chunk_by(|a, b| a.0 == b.0)
+        let edges = self.sorted_edges();
+        let runs = || edges.chunk_by(|a, b| a.0 == b.0);
+        let open = runs()
             .filter(|run| !(run.len() == 2 && run[0].1 != run[1].1))
             .count();
+        let boundary = runs().filter(|run| run.len() == 1).count();
 
         // Coincident: the same three indices, or the same three points, as a triangle
         // before it.
@@ -124,6 +137,12 @@ impl Mesh {
             } else {
                 0
             },
+            boundary_edges: boundary,
+            boundary_pinched: if open == boundary {
+                self.fans().filter(|&(fans, _)| fans > 1).count()
+            } else {
+                0
+            },
             coincident,
             degenerate,
             inward: !self.triangles.is_empty() && self.volume() <= 0.0,
@@ -144,6 +163,68 @@ impl Mesh {
             .collect();
         edges.par_sort_unstable();
         edges
+    }
+
+    /// The vertices on a boundary: on an edge of one triangle only.
+    pub fn boundary_vertices(&self) -> Vec<u32> {
+        let mut ends: Vec<u32> = self
+            .sorted_edges()
+            .chunk_by(|a, b| a.0 == b.0)
+            .filter(|run| run.len() == 1)
+            .flat_map(|run| [(run[0].0 >> 32) as u32, run[0].0 as u32])
+            .collect();
+        ends.sort_unstable();
+        ends.dedup();
+        ends
+    }
+
+    /// Around each used vertex of a mesh whose edges are in at most two triangles of
+    /// opposite directions: how many fans its triangles form, and whether one is open.
+    fn fans(&self) -> impl Iterator<Item = (usize, bool)> {
+        // Around t[i], triangle t leads from neighbour t[i+1] to t[i+2]: a fan is a chain
+        // of these, open where a neighbour leads nowhere.
+        let mut around: Vec<(u32, u32, u32)> = Vec::with_capacity(self.triangles.len() * 3);
+        for t in &self.triangles {
+            for i in 0..3 {
+                around.push((t[i], t[(i + 1) % 3], t[(i + 2) % 3]));
+            }
+        }
+        around.sort_unstable();
+        let mut counts = Vec::new();
+        for fan in around.chunk_by(|a, b| a.0 == b.0) {
+            // Chains start at a neighbour no triangle leads to (open fans), then the
+            // cycles left (closed ones).
+            let leads_to: Vec<u32> = {
+                let mut to: Vec<u32> = fan.iter().map(|&(_, _, b)| b).collect();
+                to.sort_unstable();
+                to
+            };
+            let mut seen = vec![false; fan.len()];
+            let (mut fans, mut open) = (0, false);
+            let starts = fan
+                .iter()
+                .enumerate()
+                .filter(|(_, &(_, a, _))| leads_to.binary_search(&a).is_err())
+                .map(|(i, _)| (i, true))
+                .chain((0..fan.len()).map(|i| (i, false)));
+            for (start, is_open) in starts {
+                if seen[start] {
+                    continue;
+                }
+                fans += 1;
+                open |= is_open;
+                let mut at = fan[start].1;
+                while let Ok(i) = fan.binary_search_by_key(&at, |&(_, a, _)| a) {
+                    if seen[i] {
+                        break;
+                    }
+                    seen[i] = true;
+                    at = fan[i].2;
+                }
+            }
+            counts.push((fans, open));
+        }
+        counts.into_iter()
     }
 
     /// Vertices of a closed mesh whose triangles do not form exactly one fan.
@@ -242,5 +323,22 @@ mod tests {
             .extend([[0, 4, 5], [0, 6, 4], [0, 5, 6], [4, 6, 5]]);
         let check = pinched.check();
         assert!(check.closed() && check.pinched_vertices == 1, "{check}");
+
+        // Open meshes: a tetrahedron without a face is manifold with its boundary (three
+        // edges, each vertex one fan); two such sharing a vertex are not, nor is a fin.
+        assert!(open.check().manifold_with_boundary() && !open.check().manifold());
+        assert_eq!(open.boundary_vertices(), vec![1, 2, 3]);
+        assert_eq!(open.check().boundary_edges, 3);
+        let mut two = pinched.clone();
+        two.triangles.retain(|t| *t != [1, 2, 3] && *t != [4, 6, 5]);
+        let check = two.check();
+        assert_eq!(
+            (check.boundary_edges, check.boundary_pinched),
+            (6, 1),
+            "{check}"
+        );
+        assert!(!check.manifold_with_boundary());
+        assert!(!fin.check().manifold_with_boundary());
+        assert!(clean.check().manifold_with_boundary());
     }
 }
