@@ -170,6 +170,16 @@ class ActiveSkinSettings(bpy.types.PropertyGroup):
         name="VDB level sets", default=False,
         description="Also write the skin as a VDB level set a frame (needs activeskin built with OpenVDB)",
     )
+    use_preview: bpy.props.BoolProperty(
+        name="Live preview", default=False,
+        description="Rebuild the surface in the viewport as the frame changes, at a coarser "
+        "voxel, without baking (the skin carried on when stepping forward, started again "
+        "otherwise); renders and the bake keep the full settings",
+    )
+    preview_coarsening: bpy.props.FloatProperty(
+        name="Preview voxel ×", default=2.0, min=1.0, soft_max=4.0,
+        description="The preview's voxel over the bake's",
+    )
 
 
 def _tension(settings):
@@ -251,6 +261,21 @@ def _region_of(settings):
         at = _mantaflow_placement(settings.emitter, fluid)
         lo, hi = ([v[i] - at[i] for i in range(3)] for v in (lo, hi))
     return tuple(lo), tuple(hi)
+
+
+def _frame_particles(settings, scene, depsgraph, frame):
+    """The particles of `frame` (the scene at it for a particle system or an object's
+    points): positions, velocities and ids (None without Follow the motion)."""
+    if settings.source == "PARTICLES":
+        positions, velocities, ids = _particles_of(settings, scene, depsgraph)
+    elif settings.source == "POINTS":
+        positions, velocities, ids = _points_of(settings, depsgraph)
+    else:
+        read = _activeskin().read_particles(_frame_path(settings.pattern, frame))
+        positions, velocities, ids = read["positions"], read["velocities"], read["ids"]
+    if not settings.use_velocity:
+        velocities, ids = None, None
+    return positions, velocities, ids
 
 
 def _points_of(settings, depsgraph):
@@ -367,25 +392,21 @@ class Bake:
             return False
         frame = self.frames.pop(0)
         s = self.settings
-        if s.source == "PARTICLES":
-            self.scene.frame_set(frame)
-            positions, velocities, ids = _particles_of(s, self.scene, context.evaluated_depsgraph_get())
-        elif s.source == "POINTS":
-            self.scene.frame_set(frame)
-            positions, velocities, ids = _points_of(s, context.evaluated_depsgraph_get())
-        elif s.source == "MANTAFLOW":
+        if s.source == "MANTAFLOW":
             path = _frame_path(self.pattern, frame)
             if not os.path.isfile(path):
                 raise ValueError(f"{path}: not baked (bake the domain's data over {s.frame_start}-{s.frame_end})")
             mesh = self.skin.advance(path, self.velocity, grid="phi")
             self._write(frame, mesh)
             return True
-        else:
-            path = _frame_path(s.pattern, frame)
-            read = _activeskin().read_particles(path)
-            positions, velocities, ids = read["positions"], read["velocities"], read["ids"]
-        if not s.use_velocity:
-            velocities, ids = None, None
+        if s.source in ("PARTICLES", "POINTS"):
+            global _baking
+            _baking = True
+            try:
+                self.scene.frame_set(frame)
+            finally:
+                _baking = False
+        positions, velocities, ids = _frame_particles(s, self.scene, context.evaluated_depsgraph_get(), frame)
         mesh = self.skin.advance(positions, velocities=velocities, ids=ids)
         self._write(frame, mesh)
         return True
@@ -532,12 +553,18 @@ def load_frame(scene, frame):
     mesh.clear_geometry()
     if not os.path.isfile(path):
         return obj
-    positions, triangles, velocity = read_ply(path)
+    return _set_mesh(obj, *read_ply(path))
+
+
+def _set_mesh(obj, positions, triangles, velocity):
+    """The object's mesh set to these triangles, with the `velocity` point attribute."""
+    mesh = obj.data
+    mesh.clear_geometry()
     n, m = len(positions), len(triangles)
     mesh.vertices.add(n)
     mesh.vertices.foreach_set("co", positions.ravel())
     mesh.loops.add(3 * m)
-    mesh.loops.foreach_set("vertex_index", triangles.ravel())
+    mesh.loops.foreach_set("vertex_index", np.asarray(triangles, np.int32).ravel())
     mesh.polygons.add(m)
     mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * m, 3, dtype=np.int32))
     mesh.polygons.foreach_set("loop_total", np.full(m, 3, np.int32))
@@ -558,13 +585,62 @@ def _show(scene):
         obj.matrix_world = mathutils.Matrix.Translation(_mantaflow_placement(s.emitter, fluid))
 
 
+# A bake sets the frame itself: the frame handler leaves it alone then.
+_baking = False
+# The live preview's skin, what it was made with, and the last frame it took.
+_preview = {"skin": None, "key": None, "frame": None}
+
+
+def _rendering():
+    running = getattr(bpy.app, "is_job_running", None)
+    return bool(running and running("RENDER"))
+
+
+def preview_frame(scene, depsgraph):
+    """The live preview: the display object's mesh set to the surface of the current
+    frame, at the preview's coarser voxel; the skin carried on from the frame before
+    when the frame stepped forward with the same settings, started again otherwise.
+    Returns whether it carried on."""
+    s = scene.activeskin
+    if s.source == "MANTAFLOW":
+        raise ValueError("the live preview skins particles: bake a Mantaflow domain")
+    activeskin = _activeskin()
+    frame = scene.frame_current
+    voxel = (s.voxel_size or activeskin.particle_voxel_size(s.radius)) * s.preview_coarsening
+    fps = scene.render.fps / scene.render.fps_base
+    key = (s.source, s.emitter and s.emitter.name, s.particle_system, s.pattern, s.radius,
+           voxel, s.alpha, _tension(s), s.smooth, s.use_velocity, _region_of(s), fps)
+    same = _preview["skin"] is not None and _preview["key"] == key
+    if same and _preview["frame"] == frame:
+        return True
+    carried = same and _preview["frame"] == frame - 1
+    if not carried:
+        _preview.update(skin=None, frame=None, key=key)
+        _preview["skin"] = activeskin.ParticleSkin(
+            s.radius, voxel_size=voxel, alpha=s.alpha, beta=_tension(s), smooth=s.smooth,
+            fps=fps, first_frame=frame, region=_region_of(s),
+        )
+    positions, velocities, ids = _frame_particles(s, scene, depsgraph, frame)
+    mesh = _preview["skin"].advance(positions, velocities=velocities, ids=ids)
+    _preview["frame"] = frame
+    obj = _display_object(scene)
+    obj.matrix_world = mathutils.Matrix.Identity(4)
+    _set_mesh(obj, mesh.vertices, mesh.triangles, mesh.velocities)
+    return carried
+
+
 @bpy.app.handlers.persistent
-def _on_frame_change(scene, *args):
-    if bpy.data.objects.get(DISPLAY_NAME) is not None:
-        try:
+def _on_frame_change(scene, depsgraph=None, *args):
+    if _baking:
+        return
+    try:
+        if scene.activeskin.use_preview and not _rendering():
+            preview_frame(scene, depsgraph or bpy.context.evaluated_depsgraph_get())
+        elif bpy.data.objects.get(DISPLAY_NAME) is not None:
             load_frame(scene, scene.frame_current)
-        except (OSError, ValueError) as e:
-            print(f"activeskin: {_one_line(e)}")
+    except (OSError, ValueError, RuntimeError) as e:
+        _preview.update(skin=None, frame=None, key=None)
+        print(f"activeskin: {_one_line(e)}")
 
 
 class ACTIVESKIN_PT_panel(bpy.types.Panel):
@@ -602,6 +678,10 @@ class ACTIVESKIN_PT_panel(bpy.types.Panel):
         row.prop(s, "write_usd")
         row.prop(s, "write_vdb")
         layout.operator(ACTIVESKIN_OT_bake.bl_idname, icon="MOD_FLUIDSIM")
+        if s.source != "MANTAFLOW":
+            row = layout.row(align=True)
+            row.prop(s, "use_preview")
+            row.prop(s, "preview_coarsening")
 
 
 classes = (ActiveSkinSettings, ACTIVESKIN_OT_bake, ACTIVESKIN_PT_panel)

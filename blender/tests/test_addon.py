@@ -23,6 +23,7 @@ import os
 import struct
 import subprocess
 import sys
+import time
 
 import bpy
 import numpy as np
@@ -235,6 +236,35 @@ assert max(v.co.x for v in bpy.data.objects["ActiveSkin"].data.vertices) <= 1.5
 cli = whole_cli
 s.region = None
 s.cache_dir = os.path.join(cache, "splash")
+
+# The live preview: no bake, the surface rebuilt as the frame changes at twice the voxel
+# size, carried on while the frames step forward (frame 6 after 1–6 is the command's run
+# over 1–6 at that voxel), started again on a jump (frame 20 alone is the command's
+# run of frame 20 alone).
+s.use_preview = True
+s.preview_coarsening = 2.0
+voxel = 2.0 * activeskin_blender._activeskin().particle_voxel_size(0.04)
+for frames, name in (("1-6", "cli_preview"), ("20-20", "cli_preview_jump")):
+    cli = os.path.join(cache, name, "m.{frame:04d}.obj")
+    subprocess.run(
+        [binary, "particles", "--particles", splash, "--radius", "0.04", "--alpha", "48",
+         "--voxel-size", repr(voxel), "--frames", frames,
+         "--mesh", cli.replace("{frame:04d}", "####"), "-q"],
+        check=True,
+    )
+steps = []
+for frame in range(1, 7):
+    started = time.perf_counter()
+    scene.frame_set(frame)
+    steps.append(time.perf_counter() - started)
+cli = os.path.join(cache, "cli_preview", "m.{frame:04d}.obj")
+check_against_the_command("the live preview stepped from 1", frames=(6,))
+print("preview frame steps: " + ", ".join(f"{1e3 * t:.0f} ms" for t in steps))
+scene.frame_set(20)
+cli = os.path.join(cache, "cli_preview_jump", "m.{frame:04d}.obj")
+check_against_the_command("the live preview jumped to 20", frames=(20,))
+s.use_preview = False
+cli = whole_cli
 
 # The splash as a particle system of the scene: its point cache, external, holds each
 # frame's particles (Blender's .bphys: "BPHYSICS", the type, the particle count, the data

@@ -29,6 +29,7 @@ from ._activeskin import (
     sequence_frames,
     set_memory_budget,
     warmup_frames,
+    particle_voxel_size,
 )
 
 if HAS_VDB:
@@ -52,6 +53,7 @@ __all__ = [
     "skin_for_sequence",
     "skin_sequence",
     "warmup_frames",
+    "particle_voxel_size",
 ] + (["measure_velocity"] if HAS_VDB else [])
 
 

@@ -81,6 +81,12 @@ pub(crate) fn warmup_frames(alpha: f32, fps: f64) -> i64 {
     activeskin::frames::auto_warmup(f64::from(alpha), fps)
 }
 
+/// The voxel size a particle skin of `radius` takes when none is given.
+#[pyfunction]
+pub(crate) fn particle_voxel_size(radius: f32) -> f32 {
+    activeskin::frames::ParticleInput::with_radius(radius).dx
+}
+
 /// The most memory a frame may take, in GB ([`set_memory_budget`]).
 #[pyfunction]
 pub(crate) fn memory_budget() -> f64 {

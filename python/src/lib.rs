@@ -61,6 +61,7 @@ fn _activeskin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sequence_frames, m)?)?;
     m.add_function(wrap_pyfunction!(frame_path, m)?)?;
     m.add_function(wrap_pyfunction!(warmup_frames, m)?)?;
+    m.add_function(wrap_pyfunction!(particle_voxel_size, m)?)?;
     m.add("DEFAULT_ALPHA", DEFAULT_ALPHA)?;
     m.add("DEFAULT_FPS", DEFAULT_FPS)?;
     m.add(
