@@ -372,6 +372,23 @@ def test_a_dense_level_set_in_voxels_is_skinned_onto_its_sphere():
     assert mesh.velocities is not None and np.abs(mesh.velocities).max() < 0.05
 
 
+def test_a_level_set_skin_cut_to_a_region_is_open_on_its_sides():
+    """region= on LevelSetSkin: a sphere cut by the plane z = 0 is a hemisphere, its rim on
+    the plane, its skin (area, volume) the whole sphere's."""
+    spacing, origin = 0.05, -1.0
+    phi = dense(40, spacing, origin, lambda x, y, z: np.sqrt(x * x + y * y + z * z) - 0.6)
+    whole = activeskin.LevelSetSkin(spacing=spacing, origin=(origin,) * 3)
+    cut = activeskin.LevelSetSkin(spacing=spacing, origin=(origin,) * 3,
+                                  region=((-2, -2, 0), (2, 2, 2)))
+    for _ in range(3):
+        a, b = whole.advance(phi), cut.advance(phi)
+    assert b.vertices[:, 2].min() == 0.0
+    assert len(b.vertices) < 0.6 * len(a.vertices)
+    assert b.stats["volume"] == a.stats["volume"] and b.stats["area"] == a.stats["area"]
+    rim = b.vertices[b.vertices[:, 2] == 0.0]
+    assert np.abs(np.linalg.norm(rim, axis=1) - 0.6).max() < 0.5 * spacing
+
+
 def test_a_dense_morph_from_a_sphere_to_a_torus_ends_a_torus():
     spacing, origin, n = 0.04, -0.96, 48
     sphere = dense(n, spacing, origin, lambda x, y, z: np.sqrt(x * x + y * y + z * z) - 0.5)
