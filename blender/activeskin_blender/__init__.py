@@ -711,6 +711,8 @@ def register():
 def unregister():
     if _on_frame_change in bpy.app.handlers.frame_change_post:
         bpy.app.handlers.frame_change_post.remove(_on_frame_change)
+    # The preview's skin (and the thread its frames run on) goes with the add-on.
+    _preview.update(skin=None, key=None, frame=None)
     del bpy.types.Scene.activeskin
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)
