@@ -130,6 +130,10 @@ def test_region_is_the_commands(binary, tmp_path):
     data, cli = tmp_path / "data", tmp_path / "cli"
     for d in (data, cli):
         d.mkdir()
+    # Open on the box's sides by design: tests/python.rs checks the meshes written here as
+    # surfaces with a boundary.
+    for d in (tmp_path, cli):
+        (d / ".cut-to-region").write_bytes(b"")
     for f in range(1, 4):
         write_ply(data / f"p.{f:04d}.ply", *ball(f))
     subprocess.run(
