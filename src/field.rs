@@ -75,11 +75,17 @@ pub enum Field {
     MaxMemory,
     /// The box the meshes are cut to.
     Region,
+    /// What the liquid meets (`--collider`).
+    Collider,
+    /// How near the skin comes before it is carried to a collider.
+    ColliderGap,
+    /// How far into a collider the liquid runs.
+    ColliderDepth,
 }
 
 impl Field {
     /// Every field, for looking one up by name.
-    pub const ALL: [Field; 33] = [
+    pub const ALL: [Field; 36] = [
         Field::Radius,
         Field::SmoothingLength,
         Field::Iso,
@@ -113,6 +119,9 @@ impl Field {
         Field::Resume,
         Field::MaxMemory,
         Field::Region,
+        Field::Collider,
+        Field::ColliderGap,
+        Field::ColliderDepth,
     ];
 
     /// The library's name: snake case, as the settings' structs and Python's keywords
@@ -152,6 +161,9 @@ impl Field {
             Field::Resume => "resume",
             Field::MaxMemory => "max_memory",
             Field::Region => "region",
+            Field::Collider => "collider",
+            Field::ColliderGap => "collider_gap",
+            Field::ColliderDepth => "collider_depth",
         }
     }
 

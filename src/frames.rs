@@ -8,6 +8,7 @@
 //! run resumed from a written frame, or a farm chunk started from one, repeats an
 //! uninterrupted run bit for bit.
 
+mod collider;
 mod data;
 mod inputs;
 mod level_set_run;
@@ -22,6 +23,7 @@ mod usage;
 
 use std::time::Instant;
 
+pub use collider::{ColliderFiles, ColliderSpec, DEFAULT_GAP_VOXELS};
 pub use data::DataError;
 pub use inputs::{
     auto_warmup, AttributeChoice, AttributeSource, InputFrames, ParticleFrame, ParticleInput,
@@ -200,12 +202,12 @@ fn motion_of<'a>(input: Option<&'a FrameInput>) -> Motion<'a> {
 /// gradient there). The input's particle attributes at the mesh's vertices, where
 /// `wants_attributes`.
 fn surface_values(
-    (skin, level_set): (&AnySkin, &GridData),
+    (shown, level_set): (&crate::mesh::Mesh, &GridData),
     input: Option<&FrameInput>,
     motion: &SurfaceMotion,
     ((mesh, grid), wants_attributes): ((bool, bool), bool),
 ) -> SurfaceValues {
-    let mesh = mesh.then(|| motion.at(&skin.mesh().positions, &skin.mesh().normals, None));
+    let mesh = mesh.then(|| motion.at(&shown.positions, &shown.normals, None));
     let grid = grid.then(|| {
         let (coords, values): (Vec<[i32; 3]>, Vec<f32>) = level_set.active_voxels().unzip();
         // Normals from the voxels' own differences: sampling the level set for them took
@@ -227,7 +229,7 @@ fn surface_values(
     });
     // Particle attributes where the mesh holds them.
     let attributes = match (wants_attributes, input.and_then(|i| i.attributes.as_ref())) {
-        (true, Some(source)) => source.at(&skin.mesh().positions),
+        (true, Some(source)) => source.at(&shown.positions),
         _ => Vec::new(),
     };
     SurfaceValues {
@@ -499,8 +501,19 @@ fn settle_and_write(
         duration: this.duration,
         dx,
     };
+    // Meeting a collider, the outputs mesh the met level set; the skin is untouched.
+    let met = match outputs.collider_at(frame, dx)? {
+        Some((collider, gap, depth)) => {
+            crate::target::meet_collider(&level_set, &*collider, gap, depth).map(|grid| {
+                let background = grid.background;
+                crate::polygonize::mesh_vdb(grid, |v| v / background)
+            })
+        }
+        None => None,
+    };
+    let shown = met.as_ref().unwrap_or(skin.mesh());
     let surface = surface_values(
-        (skin, &level_set),
+        (shown, &level_set),
         input,
         &motion,
         (writing.velocities, writing.attributes),
@@ -508,7 +521,7 @@ fn settle_and_write(
     let motion = writing.render_motion.then_some(&motion);
     outputs.write_frame(
         frame,
-        (skin, &level_set),
+        (skin, shown, &level_set),
         (&surface, motion),
         &stats,
         this.started,

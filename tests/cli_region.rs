@@ -2,6 +2,7 @@
 //! manifold with the cut as its boundary, the rest of the surface the uncut run's vertex
 //! for vertex — while the skin (its VDBs, the stats' area and volume) is the run without
 //! it, bit for bit. A region that holds nothing is one line.
+#![cfg(feature = "cli")]
 
 mod common;
 

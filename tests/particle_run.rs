@@ -63,6 +63,7 @@ fn run_library(into: &Path) {
         usd: None,
         surfaces: None,
         region: None,
+        collider: None,
     };
     let mut outputs = Outputs::new(&spec, (1, 4)).unwrap();
     let run = ParticleRun {

@@ -198,6 +198,22 @@ pub struct OutputArgs {
     /// skin, its VDBs, renders and stats' area and volume stay the whole surface's.
     #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true)]
     pub region: Option<String>,
+    /// What the liquid meets in the meshes: a VDB level set or a closed OBJ mesh (a tank,
+    /// glass, an obstacle), one file or a frame pattern. Where the skin comes within
+    /// --collider-gap of it, the surface is carried straight on to it (and
+    /// --collider-depth into it), instead of closing into a shell a radius off; the skin
+    /// and its VDBs are untouched.
+    #[arg(long)]
+    pub collider: Option<String>,
+    /// How near the skin must come to the collider to be carried on to it, world units
+    /// [default: 4 voxels; `particles`: 2 particle radii].
+    #[arg(long)]
+    pub collider_gap: Option<f32>,
+    /// How far into the collider the liquid's surface runs, world units: 0 meets its
+    /// face, more overlaps it (renderers want the liquid and the glass to share a face or
+    /// overlap, never a gap).
+    #[arg(long, default_value_t = 0.0)]
+    pub collider_depth: f32,
     /// No progress output.
     #[arg(long, short)]
     pub quiet: bool,
@@ -225,7 +241,32 @@ impl OutputArgs {
             usd: self.usd_spec()?,
             surfaces: None,
             region: self.region.as_deref().map(region_arg).transpose()?,
+            collider: self.collider_spec()?,
         })
+    }
+
+    fn collider_spec(&self) -> anyhow::Result<Option<activeskin::frames::ColliderSpec>> {
+        use activeskin::frames::{ColliderFiles, ColliderSpec};
+        let Some(spec) = &self.collider else {
+            return Ok(None);
+        };
+        for (flag, value) in [
+            ("--collider-gap", self.collider_gap.unwrap_or(1.0)),
+            ("--collider-depth", self.collider_depth),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                usage!("{flag} must be a non-negative number of world units, got {value}");
+            }
+        }
+        let files = match activeskin::sequence::FramePattern::parse(spec) {
+            Ok(pattern) => ColliderFiles::Frames(pattern),
+            Err(_) => ColliderFiles::One(PathBuf::from(spec)),
+        };
+        Ok(Some(ColliderSpec {
+            files,
+            gap: self.collider_gap,
+            depth: self.collider_depth,
+        }))
     }
 
     fn usd_spec(&self) -> anyhow::Result<Option<UsdSpec>> {

@@ -49,6 +49,9 @@ fn outputs(dir: &Path, name: &str, quiet: bool) -> OutputArgs {
         meters_per_unit: 1.0,
         shot_frames: None,
         region: None,
+        collider: None,
+        collider_gap: None,
+        collider_depth: 0.0,
     }
 }
 

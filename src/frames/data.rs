@@ -105,6 +105,9 @@ pub enum DataError {
         path.display()
     )]
     VelocityNonUniform { path: PathBuf, name: String },
+    /// A collider file missing.
+    #[error("{}: the collider is missing (frame {frame})", path.display())]
+    MissingCollider { path: PathBuf, frame: i64 },
     /// A stats file to resume that is not one.
     #[error("{}: not a stats file (one JSON object per line)", path.display())]
     NotStats { path: PathBuf },

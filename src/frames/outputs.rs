@@ -91,6 +91,9 @@ pub struct OutputSpec {
     /// The box the meshes (files, USD, the surfaces told) are cut to, open on its sides;
     /// the skin, its VDBs, renders and measures are the whole surface's.
     pub region: Option<Aabb>,
+    /// What the liquid meets in the meshes written ([`crate::target::meet_collider`]); the
+    /// skin, its VDBs and measures are untouched.
+    pub collider: Option<super::ColliderSpec>,
 }
 
 /// A frame's surface as the outputs write it: the skin's mesh, the values at its
@@ -172,6 +175,7 @@ pub struct Outputs {
     fps: f64,
     surfaces: Option<SurfaceSink>,
     region: Option<Aabb>,
+    colliders: Option<super::collider::Colliders>,
 }
 
 impl Outputs {
@@ -221,6 +225,9 @@ impl Outputs {
         if let Some(region) = spec.region {
             check_region(region)?;
         }
+        if let Some(collider) = &spec.collider {
+            collider.check()?;
+        }
         let usd_frames = usd.as_ref().map(|(_, shot)| shot.frame_pattern());
         let patterns = out.iter().chain(&mesh).chain(render.iter().map(|r| &r.0));
         for pattern in patterns.chain(&usd_frames) {
@@ -250,6 +257,7 @@ impl Outputs {
             fps: 24.0,
             surfaces: spec.surfaces.clone(),
             region: spec.region,
+            colliders: spec.collider.clone().map(super::collider::Colliders::new),
         })
     }
 
@@ -315,13 +323,25 @@ impl Outputs {
         path.is_file().then_some(path)
     }
 
+    /// The collider of `frame` for a skin of voxel `dx`, with its gap and depth, when the
+    /// run has one.
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn collider_at(
+        &mut self,
+        frame: i64,
+        dx: f32,
+    ) -> Result<Option<(std::sync::Arc<dyn Target>, f32, f32)>, FrameError> {
+        self.colliders.as_mut().map(|c| c.at(frame, dx)).transpose()
+    }
+
     /// Writes one frame: `level_set` is the skin's settled state
-    /// ([`AnySkin::settle`]), `stats` measured on it, `velocities` its surface's
+    /// ([`AnySkin::settle`]), `mesh` the surface shown (the skin's, or met with a
+    /// collider), `stats` measured on the skin, `velocities` at `mesh`'s vertices
     /// ([`Outputs::wants_velocities`]).
     pub fn write_frame(
         &mut self,
         frame: i64,
-        (skin, level_set): (&AnySkin, &GridData),
+        (skin, shown, level_set): (&AnySkin, &crate::mesh::Mesh, &GridData),
         (velocities, motion): (&SurfaceValues, Option<&SurfaceMotion>),
         stats: &StepStats,
         started: Instant,
@@ -333,7 +353,7 @@ impl Outputs {
         let tolerance = 1e-3 * level_set.transform.voxel_size() as f32;
         let cut = self
             .region
-            .map(|region| cut_to_region(skin.mesh(), values, region, tolerance));
+            .map(|region| cut_to_region(shown, values, region, tolerance));
         let (mesh, values) = match &cut {
             Some((mesh, velocities, attributes)) => (
                 mesh,
@@ -342,7 +362,7 @@ impl Outputs {
                     attributes,
                 },
             ),
-            None => (skin.mesh(), values),
+            None => (shown, values),
         };
         if let Some(pattern) = &self.mesh {
             crate::io::mesh::write_with_values(mesh, values, &pattern.path(frame))?;

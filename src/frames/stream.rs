@@ -301,6 +301,7 @@ fn sink_outputs(
         usd: None,
         surfaces: Some(sink),
         region,
+        collider: None,
     };
     Outputs::new(&spec, (first, i64::MAX))
 }

@@ -142,6 +142,15 @@ pub enum UsageError {
     /// A USD stage whose name its layers' names cannot hold.
     #[error("{} '{}': the stage's name cannot hold @ \" # % $ or \\ (its frames' layers are named after it)", Field::Usd, stage.display())]
     UsdName { stage: PathBuf },
+    /// A collider without OpenVDB (it is read, or made from a mesh, with it).
+    #[error(
+        "{} needs the `vdb` feature (activeskin built with OpenVDB)",
+        Field::Collider
+    )]
+    ColliderWithoutVdb,
+    /// A collider file of a kind that cannot be one.
+    #[error("{} '{}': a collider is a VDB level set (.vdb) or a closed OBJ mesh (.obj)", Field::Collider, path.display())]
+    ColliderKind { path: PathBuf },
     /// A region that holds nothing.
     #[error(
         "{} must be a box with finite corners, the first below the second on every axis, got {}",

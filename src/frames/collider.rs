@@ -1,0 +1,142 @@
+//! `--collider`: what the liquid meets ([`crate::target::meet_collider`]), read for the
+//! outputs: a VDB level set or a closed OBJ mesh (made a level set at the skin's voxel by
+//! OpenVDB's meshToLevelSet), one file for the whole shot or one a frame.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use super::{DataError, FrameError, UsageError};
+use crate::sequence::FramePattern;
+use crate::target::Target;
+
+/// The collider's files.
+#[derive(Debug, Clone)]
+pub enum ColliderFiles {
+    /// One file for every frame (a static tank, an obstacle at rest).
+    One(PathBuf),
+    /// One file a frame (a moving obstacle).
+    Frames(FramePattern),
+}
+
+/// What the liquid meets, and how.
+#[derive(Debug, Clone)]
+pub struct ColliderSpec {
+    /// A VDB level set (.vdb, its first float grid) or a closed OBJ mesh.
+    pub files: ColliderFiles,
+    /// How near the skin must come (world units) to be carried on to the collider; `None`:
+    /// [`DEFAULT_GAP_VOXELS`] voxels.
+    pub gap: Option<f32>,
+    /// How far into the collider the liquid runs (world units): 0 meets its face.
+    pub depth: f32,
+}
+
+/// The gap when none is given, in voxels: past the shell a particle skin closes about a
+/// radius (two voxels at its default voxel) off a wall.
+pub const DEFAULT_GAP_VOXELS: f32 = 4.0;
+
+impl ColliderSpec {
+    /// The file of `frame`.
+    fn path(&self, frame: i64) -> PathBuf {
+        match &self.files {
+            ColliderFiles::One(path) => path.clone(),
+            ColliderFiles::Frames(pattern) => pattern.path(frame),
+        }
+    }
+
+    /// Checked before the run: a kind of file it can read, and OpenVDB to read it.
+    pub(crate) fn check(&self) -> Result<(), FrameError> {
+        if cfg!(not(feature = "vdb")) {
+            return Err(UsageError::ColliderWithoutVdb.into());
+        }
+        let path = self.path(0);
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("vdb") | Some("obj") => Ok(()),
+            _ => Err(UsageError::ColliderKind { path }.into()),
+        }
+    }
+}
+
+/// The collider of each frame, read once for a static one.
+pub(crate) struct Colliders {
+    spec: ColliderSpec,
+    /// The last read: its file and voxel size, and the collider.
+    read: Option<(PathBuf, f32, Arc<dyn Target>)>,
+}
+
+impl Colliders {
+    pub(crate) fn new(spec: ColliderSpec) -> Self {
+        Colliders { spec, read: None }
+    }
+
+    /// The collider at `frame` for a skin of voxel `dx`, its gap and depth.
+    pub(crate) fn at(
+        &mut self,
+        frame: i64,
+        dx: f32,
+    ) -> Result<(Arc<dyn Target>, f32, f32), FrameError> {
+        let path = self.spec.path(frame);
+        let gap = self.spec.gap.unwrap_or(DEFAULT_GAP_VOXELS * dx);
+        if let Some((read, at, collider)) = &self.read {
+            if *read == path && *at == dx {
+                return Ok((collider.clone(), gap, self.spec.depth));
+            }
+        }
+        if !path.is_file() {
+            return Err(DataError::MissingCollider { path, frame }.into());
+        }
+        let collider = read(&path, dx)?;
+        self.read = Some((path, dx, collider.clone()));
+        Ok((collider, gap, self.spec.depth))
+    }
+}
+
+/// A collider file as a signed distance.
+#[cfg(feature = "vdb")]
+fn read(path: &std::path::Path, dx: f32) -> Result<Arc<dyn Target>, FrameError> {
+    use crate::vdb::Grid;
+    let is_obj = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+    let data = if is_obj {
+        let mesh = crate::io::obj::read(path)?;
+        Grid::mesh_to_level_set(&mesh.positions, &mesh.triangles, f64::from(dx), 3.0)?.to_data()?
+    } else {
+        Grid::read(path, None)?.to_data()?
+    };
+    let read = super::target_from_grid(path, data, None, super::TargetUnits::Auto)?;
+    Ok(Arc::from(read.target))
+}
+
+#[cfg(not(feature = "vdb"))]
+fn read(_: &std::path::Path, _: f32) -> Result<Arc<dyn Target>, FrameError> {
+    Err(UsageError::ColliderWithoutVdb.into())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_collider_is_a_vdb_or_an_obj_read_with_openvdb() {
+        let spec = |name: &str| ColliderSpec {
+            files: ColliderFiles::One(name.into()),
+            gap: None,
+            depth: 0.0,
+        };
+        let said = |name: &str| spec(name).check().map_err(|e| e.to_string());
+        if cfg!(feature = "vdb") {
+            assert!(said("tank.vdb").is_ok() && said("Tank.OBJ").is_ok());
+            assert!(said("tank.stl")
+                .unwrap_err()
+                .contains("a collider is a VDB level set"));
+        } else {
+            assert!(said("tank.vdb")
+                .unwrap_err()
+                .contains("`collider` needs the `vdb` feature"));
+        }
+    }
+}
