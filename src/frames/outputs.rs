@@ -420,7 +420,7 @@ impl Outputs {
             None => check.manifold(),
         };
         let clean = match self.region {
-            Some(_) => manifold && check.coincident == 0 && check.degenerate == 0,
+            Some(_) => check.is_clean_with_boundary(),
             None => check.is_clean(),
         };
         let mut line = serde_json::json!({

@@ -48,6 +48,12 @@ impl MeshCheck {
         self.open_edges == self.boundary_edges && self.boundary_pinched == 0
     }
 
+    /// [`MeshCheck::is_clean`] but for a boundary (a mesh cut to a region): manifold with
+    /// it, nothing coincident or degenerate (an open mesh has no inside to wind).
+    pub fn is_clean_with_boundary(&self) -> bool {
+        self.manifold_with_boundary() && self.coincident == 0 && self.degenerate == 0
+    }
+
     /// Everything a downstream tool relies on.
     pub fn is_clean(&self) -> bool {
         self.manifold() && self.coincident == 0 && self.degenerate == 0 && !self.inward
@@ -133,7 +139,10 @@ impl Mesh {
             triangles: self.triangles.len(),
             open_edges: open,
             pinched_vertices: if open == 0 {
-                self.pinched_vertices()
+                // Closed: one fan each, and none open.
+                self.fans()
+                    .filter(|&(fans, open)| fans != 1 || open)
+                    .count()
             } else {
                 0
             },
@@ -225,43 +234,6 @@ impl Mesh {
             counts.push((fans, open));
         }
         counts.into_iter()
-    }
-
-    /// Vertices of a closed mesh whose triangles do not form exactly one fan.
-    fn pinched_vertices(&self) -> usize {
-        // Around t[i], triangle t leads from neighbour t[i+1] to t[i+2].
-        let mut around: Vec<(u32, u32, u32)> = Vec::with_capacity(self.triangles.len() * 3);
-        for t in &self.triangles {
-            for i in 0..3 {
-                around.push((t[i], t[(i + 1) % 3], t[(i + 2) % 3]));
-            }
-        }
-        around.sort_unstable();
-        around
-            .chunk_by(|a, b| a.0 == b.0)
-            .filter(|fan| {
-                let step = |from: u32| {
-                    fan.binary_search_by_key(&from, |&(_, a, _)| a)
-                        .ok()
-                        .map(|i| fan[i].2)
-                };
-                // Back at the start after exactly one trip round: one fan, not several.
-                let start = fan[0].1;
-                let mut at = start;
-                let mut steps = 0;
-                loop {
-                    match step(at) {
-                        Some(n) => at = n,
-                        None => return true,
-                    }
-                    steps += 1;
-                    if at == start || steps > fan.len() {
-                        break;
-                    }
-                }
-                steps != fan.len()
-            })
-            .count()
     }
 }
 

@@ -219,9 +219,7 @@ pub fn assert_clean_meshes(dir: &Path) -> usize {
         if let Some(mesh) = read_mesh(&path) {
             let check = mesh.check();
             let clean = match open {
-                true => {
-                    check.manifold_with_boundary() && check.coincident == 0 && check.degenerate == 0
-                }
+                true => check.is_clean_with_boundary(),
                 false => check.is_clean(),
             };
             assert!(clean, "{}: {check}", path.display());
