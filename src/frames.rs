@@ -502,15 +502,10 @@ fn settle_and_write(
         dx,
     };
     // Meeting a collider, the outputs mesh the met level set; the skin is untouched.
-    let met = match outputs.collider_at(frame, dx)? {
-        Some((collider, gap, depth)) => {
-            crate::target::meet_collider(&level_set, &*collider, gap, depth).map(|grid| {
-                let background = grid.background;
-                crate::polygonize::mesh_vdb(grid, |v| v / background)
-            })
-        }
-        None => None,
-    };
+    let met = outputs.meet_collider(frame, &level_set)?.map(|grid| {
+        let background = grid.background;
+        crate::polygonize::mesh_vdb(grid, |v| v / background)
+    });
     let shown = met.as_ref().unwrap_or(skin.mesh());
     let surface = surface_values(
         (shown, &level_set),

@@ -13,7 +13,7 @@ use glam::Vec3;
 use crate::grid::Aabb;
 
 pub use backtracked::Backtracked;
-pub use collider::meet_collider;
+pub use collider::{liquid_origin, meet_collider, ColliderGrid};
 pub use particles::{
     fluid_iso, iso_for_radius, kernel, rest_density, Density, DensityGrid,
     DEFAULT_SMOOTHING_LENGTH, MAX_SMOOTHING_LENGTH, SPRAY_LINK, SPRAY_MOST, VELOCITY_SUPPORT_RADII,

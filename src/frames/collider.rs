@@ -7,7 +7,8 @@ use std::sync::Arc;
 
 use super::{DataError, FrameError, UsageError};
 use crate::sequence::FramePattern;
-use crate::target::Target;
+use crate::target::{liquid_origin, meet_collider, ColliderGrid, Target};
+use crate::volume::GridData;
 
 /// The collider's files.
 #[derive(Debug, Clone)]
@@ -60,29 +61,30 @@ impl ColliderSpec {
     }
 }
 
-/// The collider of each frame, read once for a static one.
+/// The collider of each frame, read once for a static one, and its distance at the
+/// skin's nodes kept while it stays.
 pub(crate) struct Colliders {
     spec: ColliderSpec,
     /// The last read: its file and voxel size, and the collider.
     read: Option<(PathBuf, f32, Arc<dyn Target>)>,
+    grid: Option<ColliderGrid>,
 }
 
 impl Colliders {
     pub(crate) fn new(spec: ColliderSpec) -> Self {
-        Colliders { spec, read: None }
+        Colliders {
+            spec,
+            read: None,
+            grid: None,
+        }
     }
 
-    /// The collider at `frame` for a skin of voxel `dx`, its gap and depth.
-    pub(crate) fn at(
-        &mut self,
-        frame: i64,
-        dx: f32,
-    ) -> Result<(Arc<dyn Target>, f32, f32), FrameError> {
+    /// The collider at `frame` for a skin of voxel `dx`.
+    fn at(&mut self, frame: i64, dx: f32) -> Result<Arc<dyn Target>, FrameError> {
         let path = self.spec.path(frame);
-        let gap = self.spec.gap.unwrap_or(DEFAULT_GAP_VOXELS * dx);
         if let Some((read, at, collider)) = &self.read {
             if *read == path && *at == dx {
-                return Ok((collider.clone(), gap, self.spec.depth));
+                return Ok(collider.clone());
             }
         }
         if !path.is_file() {
@@ -90,7 +92,26 @@ impl Colliders {
         }
         let collider = read(&path, dx)?;
         self.read = Some((path, dx, collider.clone()));
-        Ok((collider, gap, self.spec.depth))
+        Ok(collider)
+    }
+
+    /// The settled `level_set` of `frame` meeting its collider
+    /// ([`crate::target::meet_collider`]); `None` where it comes nowhere near.
+    pub(crate) fn meet(
+        &mut self,
+        frame: i64,
+        level_set: &GridData,
+    ) -> Result<Option<GridData>, FrameError> {
+        let dx = level_set.transform.voxel_size() as f32;
+        let collider = self.at(frame, dx)?;
+        let origin = liquid_origin(level_set);
+        let grid = match self.grid.take() {
+            Some(grid) if grid.is_on(&collider, origin, dx) => grid,
+            _ => ColliderGrid::new(collider, origin, dx),
+        };
+        let grid = self.grid.insert(grid);
+        let gap = self.spec.gap.unwrap_or(DEFAULT_GAP_VOXELS * dx);
+        Ok(meet_collider(level_set, grid, gap, self.spec.depth))
     }
 }
 

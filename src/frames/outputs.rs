@@ -323,15 +323,17 @@ impl Outputs {
         path.is_file().then_some(path)
     }
 
-    /// The collider of `frame` for a skin of voxel `dx`, with its gap and depth, when the
-    /// run has one.
-    #[allow(clippy::type_complexity)]
-    pub(crate) fn collider_at(
+    /// The settled `level_set` of `frame` meeting the run's collider, when it has one and
+    /// the liquid comes near it ([`crate::target::meet_collider`]).
+    pub(crate) fn meet_collider(
         &mut self,
         frame: i64,
-        dx: f32,
-    ) -> Result<Option<(std::sync::Arc<dyn Target>, f32, f32)>, FrameError> {
-        self.colliders.as_mut().map(|c| c.at(frame, dx)).transpose()
+        level_set: &GridData,
+    ) -> Result<Option<GridData>, FrameError> {
+        match self.colliders.as_mut() {
+            Some(colliders) => colliders.meet(frame, level_set),
+            None => Ok(None),
+        }
     }
 
     /// Writes one frame: `level_set` is the skin's settled state

@@ -11,23 +11,122 @@ use glam::{IVec3, Vec3};
 use hashbrown::{HashMap, HashSet};
 use rayon::prelude::*;
 
-use super::{gradient, LevelSetTarget, Target};
+use std::sync::Arc;
+
+use super::{LevelSetTarget, Target};
 use crate::grid::offset_coords;
 use crate::volume::{GridData, Tile, LEAF_VOXELS, MASK_WORDS};
+
+/// A collider as the liquid's grid sees it: its signed distance at the grid's nodes, each
+/// sampled once and kept while the collider and the grid stay (a static tank is sampled
+/// where the liquid comes near it, once for the shot), read between them trilinearly.
+/// A node not kept is sampled when asked, with the same value: what a frame meets never
+/// depends on the frames before it.
+pub struct ColliderGrid {
+    target: Arc<dyn Target>,
+    origin: Vec3,
+    dx: f32,
+    blocks: HashMap<IVec3, Box<[f32; LEAF_VOXELS]>>,
+}
+
+impl ColliderGrid {
+    /// `target` on the grid of voxel `dx` whose node (0, 0, 0) is at `origin`.
+    pub fn new(target: Arc<dyn Target>, origin: Vec3, dx: f32) -> Self {
+        ColliderGrid {
+            target,
+            origin,
+            dx,
+            blocks: HashMap::new(),
+        }
+    }
+
+    /// Whether this is `target` on the grid of `origin` and `dx` (its nodes can be kept).
+    pub fn is_on(&self, target: &Arc<dyn Target>, origin: Vec3, dx: f32) -> bool {
+        Arc::ptr_eq(&self.target, target) && self.origin == origin && self.dx == dx
+    }
+
+    fn world(&self, ijk: IVec3) -> Vec3 {
+        self.origin + ijk.as_vec3() * self.dx
+    }
+
+    /// Samples the nodes of `blocks` not yet kept.
+    fn keep(&mut self, blocks: &[IVec3]) {
+        let missing: Vec<IVec3> = blocks
+            .iter()
+            .filter(|b| !self.blocks.contains_key(*b))
+            .copied()
+            .collect();
+        let this = &*self;
+        let sampled: Vec<(IVec3, Box<[f32; LEAF_VOXELS]>)> = missing
+            .into_par_iter()
+            .map(|b| {
+                let mut values = Box::new([0.0; LEAF_VOXELS]);
+                for (o, v) in values.iter_mut().enumerate() {
+                    *v = this.target.distance(this.world(b * 8 + offset_coords(o)));
+                }
+                (b, values)
+            })
+            .collect();
+        self.blocks.extend(sampled);
+    }
+
+    /// The distance at node `ijk`.
+    fn node(&self, ijk: IVec3) -> f32 {
+        match self.blocks.get(&(ijk >> 3)) {
+            Some(values) => {
+                let l = ijk & 7;
+                values[((l.x << 6) | (l.y << 3) | l.z) as usize]
+            }
+            None => self.target.distance(self.world(ijk)),
+        }
+    }
+
+    /// The distance at `p` and its direction of growth, trilinear in `p`'s cell (exact for
+    /// a plane; a wall's normal without the six extra samples of a central difference).
+    fn sample(&self, p: Vec3) -> (f32, Vec3) {
+        let q = (p - self.origin) / self.dx;
+        let base = q.floor();
+        let (t, b) = (q - base, base.as_ivec3());
+        let mut c = [0.0f32; 8];
+        for (i, v) in c.iter_mut().enumerate() {
+            let i = i as i32;
+            *v = self.node(b + IVec3::new(i >> 2, (i >> 1) & 1, i & 1));
+        }
+        let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+        // Along z, then y, then x; the gradient from the same corners.
+        let (c00, c01) = (lerp(c[0], c[1], t.z), lerp(c[2], c[3], t.z));
+        let (c10, c11) = (lerp(c[4], c[5], t.z), lerp(c[6], c[7], t.z));
+        let (c0, c1) = (lerp(c00, c01, t.y), lerp(c10, c11, t.y));
+        let value = lerp(c0, c1, t.x);
+        let dz = |x: usize, y: usize| c[4 * x + 2 * y + 1] - c[4 * x + 2 * y];
+        let grad = Vec3::new(
+            c1 - c0,
+            lerp(c01 - c00, c11 - c10, t.x),
+            lerp(
+                lerp(dz(0, 0), dz(0, 1), t.y),
+                lerp(dz(1, 0), dz(1, 1), t.y),
+                t.x,
+            ),
+        ) / self.dx;
+        (value, grad)
+    }
+}
 
 /// `liquid` (a narrow-band level set on a uniform grid, as [`crate::skin::Skin::to_level_set`]
 /// writes it) meeting `collider` (signed distance, negative inside): within `gap` of the
 /// collider the liquid's level set is the one `gap` out along the collider's normal, and
 /// nothing of the liquid lies more than `depth` inside the collider. `None` when the
-/// liquid is nowhere within `gap` of the collider (nothing to change).
+/// liquid is nowhere within `gap` of the collider (nothing to change). `collider` must be
+/// on the liquid's grid ([`ColliderGrid::is_on`]).
 pub fn meet_collider(
     liquid: &GridData,
-    collider: &dyn Target,
+    collider: &mut ColliderGrid,
     gap: f32,
     depth: f32,
 ) -> Option<GridData> {
     let dx = liquid.transform.voxel_size() as f32;
-    let origin = Vec3::from(liquid.transform.index_to_world([0.0; 3]).map(|c| c as f32));
+    let origin = liquid_origin(liquid);
+    debug_assert!(collider.origin == origin && collider.dx == dx);
     let background = liquid.background;
     let sample = LevelSetTarget::new(liquid);
     // The liquid's blocks (leaves and inside tiles, leaf-sized), and the blocks around
@@ -44,6 +143,7 @@ pub fn meet_collider(
     let reach = ((gap + depth) / (8.0 * dx)).ceil() as i32 + 1;
     let block_of = |p: Vec3| ((p - origin) / (8.0 * dx)).floor().as_ivec3();
     let mut near: Vec<IVec3> = collider
+        .target
         .parts()
         .iter()
         .flat_map(|part| {
@@ -69,13 +169,13 @@ pub fn meet_collider(
         })
     };
     let candidates: Vec<IVec3> = near.into_par_iter().filter(|&b| liquid_near(b)).collect();
-    let half_diagonal = 8.0 * dx * 3f32.sqrt() * 0.5;
-    let node = |b: IVec3, o: usize| origin + ((b * 8 + offset_coords(o)).as_vec3()) * dx;
+    collider.keep(&candidates);
+    let collider = &*collider;
     let changed: Vec<(IVec3, Option<[f32; LEAF_VOXELS]>, bool)> = candidates
         .par_iter()
         .filter_map(|&b| {
-            let centre = origin + (b * 8).as_vec3() * dx + Vec3::splat(3.5 * dx);
-            if collider.distance(centre) > gap + half_diagonal + dx {
+            let kept = &collider.blocks[&b];
+            if kept.iter().all(|&c| c >= gap) {
                 return None; // beyond the collider's reach: as it is
             }
             // The node's own value where the collider is beyond the gap.
@@ -87,11 +187,13 @@ pub fn meet_collider(
             let mut values = [background; LEAF_VOXELS];
             let mut flipped = false;
             for (o, v) in values.iter_mut().enumerate() {
-                let p = node(b, o);
-                let c = collider.distance(p);
+                let c = kept[o];
                 *v = match c >= gap {
                     true => stored(o),
-                    false => met(p, c, &sample, collider, (gap, depth), (dx, background)),
+                    false => {
+                        let p = collider.world(b * 8 + offset_coords(o));
+                        met(p, c, &sample, collider, (gap, depth), background)
+                    }
                 };
                 flipped |= (*v < 0.0) != (stored(o) < 0.0);
             }
@@ -112,6 +214,11 @@ pub fn meet_collider(
     Some(rebuilt(liquid, &leaves, &tiles, changed))
 }
 
+/// Where `liquid`'s node (0, 0, 0) is in the world.
+pub fn liquid_origin(liquid: &GridData) -> Vec3 {
+    Vec3::from(liquid.transform.index_to_world([0.0; 3]).map(|c| c as f32))
+}
+
 /// The met level set at `p`, `c` from the collider (less than `gap`): the liquid's
 /// carried from `gap` out along the collider's normal, cut `depth` inside it; within
 /// ±`background`.
@@ -119,9 +226,9 @@ fn met(
     p: Vec3,
     c: f32,
     liquid: &LevelSetTarget,
-    collider: &dyn Target,
+    collider: &ColliderGrid,
     (gap, depth): (f32, f32),
-    (dx, background): (f32, f32),
+    background: f32,
 ) -> f32 {
     if c <= -depth {
         // Past the depth: outside, by as much as the cut says (the liquid carried there
@@ -131,15 +238,15 @@ fn met(
     // Out along the collider's normal to `gap`, again from there while another face of
     // it (a floor under a wall) is still nearer: into a corner, the liquid is carried
     // from where it is clear of both.
-    let (mut q, mut at) = (p, c);
+    let (mut q, (mut at, mut normal)) = (p, collider.sample(p));
     for _ in 0..4 {
         if at >= gap {
             break;
         }
-        q += gradient(collider, q, 0.5 * dx).normalize_or_zero() * (gap - at);
-        at = collider.distance(q);
+        q += normal.normalize_or_zero() * (gap - at);
+        (at, normal) = collider.sample(q);
     }
-    let carried = liquid.distance(q);
+    let carried = liquid.trilinear(q);
     carried.max(-(c + depth)).clamp(-background, background)
 }
 
@@ -280,8 +387,21 @@ mod tests {
         let dx = 0.02;
         let liquid = slab(0.03, dx);
         let at = |data: &GridData, p: Vec3| LevelSetTarget::new(data).distance(p);
+        let wall: Arc<dyn Target> = Arc::new(Wall);
+        // Kept across "frames": a slab farther off first, then each depth.
+        let mut kept = ColliderGrid::new(wall.clone(), liquid_origin(&liquid), dx);
+        assert!(meet_collider(&slab(0.045, dx), &mut kept, 0.05, 0.0).is_some());
         for depth in [0.0, 0.01] {
-            let met = meet_collider(&liquid, &Wall, 0.05, depth).expect("the slab is near");
+            let mut fresh = ColliderGrid::new(wall.clone(), liquid_origin(&liquid), dx);
+            let met = meet_collider(&liquid, &mut fresh, 0.05, depth).expect("the slab is near");
+            // The nodes kept from the frames before change nothing, bit for bit.
+            let again = meet_collider(&liquid, &mut kept, 0.05, depth).unwrap();
+            assert_eq!(again.leaf_origins, met.leaf_origins);
+            assert!(again
+                .leaf_values
+                .iter()
+                .zip(&met.leaf_values)
+                .all(|(a, b)| a.to_bits() == b.to_bits()));
             // Across the slab's middle: the face on the wall's side now at −depth, the
             // far face where it was.
             for y in [-0.1, 0.0, 0.1] {
@@ -304,6 +424,7 @@ mod tests {
         }
         // Liquid farther than the gap from the wall: nothing changes.
         let far = slab(0.1, dx);
-        assert!(meet_collider(&far, &Wall, 0.05, 0.0).is_none());
+        let mut wall = ColliderGrid::new(Arc::new(Wall), liquid_origin(&far), dx);
+        assert!(meet_collider(&far, &mut wall, 0.05, 0.0).is_none());
     }
 }
