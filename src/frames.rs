@@ -23,7 +23,7 @@ mod usage;
 
 use std::time::Instant;
 
-pub use collider::{ColliderFiles, ColliderSpec, DEFAULT_GAP_VOXELS};
+pub use collider::{ColliderFiles, ColliderSpec, DEFAULT_GAP_VOXELS, PARTICLE_GAP_RADII};
 pub use data::DataError;
 pub use inputs::{
     auto_warmup, AttributeChoice, AttributeSource, InputFrames, ParticleFrame, ParticleInput,

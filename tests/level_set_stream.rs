@@ -25,6 +25,7 @@ fn spec() -> LevelSetSpec {
         seed: true,
         init: None,
         region: None,
+        collider: None,
     }
 }
 

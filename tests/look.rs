@@ -66,6 +66,7 @@ fn skin(cells: &[[i32; 3]], frames: i64, amount: f32, smoothing: Option<f32>) ->
         first_frame: 1,
         reference: None,
         region: None,
+        collider: None,
     })
     .expect("the stream starts");
     let mut last = None;

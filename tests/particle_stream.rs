@@ -69,6 +69,7 @@ fn spec() -> StreamSpec {
         first_frame: 1,
         reference: None,
         region: None,
+        collider: None,
     }
 }
 

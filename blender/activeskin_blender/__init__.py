@@ -35,6 +35,12 @@ VDB_NAME = "skin_{frame:04d}.vdb"
 USD_NAME = "skin.usda"
 MANTAFLOW_DATA = os.path.join("data", "fluid_data_####.vdb")
 DISPLAY_NAME = "ActiveSkin"
+# The Colliders collection as the library reads it: one OBJ for the bake (one a frame when
+# they move), another for the live preview.
+COLLIDER_NAME = "collider.obj"
+COLLIDER_FRAMES = "collider.####.obj"
+PREVIEW_COLLIDER_NAME = "preview_collider.obj"
+PREVIEW_COLLIDER_FRAMES = "preview_collider.####.obj"
 
 
 def _activeskin():
@@ -74,6 +80,9 @@ _LABELS = {
     "smooth=": "Smoothing",
     "fps=": "the scene's frame rate",
     "frames=": "the frame range",
+    "collider_gap=": "Collider gap",
+    "collider_depth=": "Into colliders",
+    "collider=": "Colliders",
 }
 
 
@@ -117,6 +126,28 @@ class ActiveSkinSettings(bpy.types.PropertyGroup):
         type=bpy.types.Object,
         description="Cut the surface to this object's bounding box (a box, the liquid's "
         "domain): open on its sides, as open water meets the frame; the skin is the whole",
+    )
+    colliders: bpy.props.PointerProperty(
+        name="Colliders",
+        type=bpy.types.Collection,
+        description="Objects the liquid meets (a tank, obstacles; closed meshes): where the "
+        "surface comes near them it is carried on to their faces instead of closing into a "
+        "shell off them; the skin is the same",
+    )
+    colliders_move: bpy.props.BoolProperty(
+        name="Moving colliders", default=False,
+        description="Read the colliders again on every frame (an animated obstacle); off, "
+        "as they stand when the bake or the preview starts",
+    )
+    collider_gap: bpy.props.FloatProperty(
+        name="Collider gap", default=0.0, min=0.0, subtype="DISTANCE", precision=4,
+        description="How near the surface must come to a collider to meet it; 0 for the "
+        "default, 3 particle radii (4 voxels on a Mantaflow cache)",
+    )
+    collider_depth: bpy.props.FloatProperty(
+        name="Into colliders", default=0.0, min=0.0, subtype="DISTANCE", precision=4,
+        description="How far the surface runs into the colliders: 0 shares their faces "
+        "(liquid against glass), more overlaps them",
     )
     particle_system: bpy.props.StringProperty(
         name="Particle system", description="Its name; empty for the object's active one"
@@ -247,20 +278,82 @@ def _mantaflow_placement(domain, settings):
     return lowest + mathutils.Vector((0.5 * dx,) * 3)
 
 
+def _skin_shift(settings):
+    """What the skin's coordinates are less than the scene's: a Mantaflow cache starts at
+    its placement; particles are where they are (None)."""
+    if settings.source == "MANTAFLOW" and settings.emitter is not None:
+        fluid, _ = _mantaflow_domain(settings)
+        return _mantaflow_placement(settings.emitter, fluid)
+    return None
+
+
 def _region_of(settings):
-    """The region object's world bounding box in the skin's coordinates (a Mantaflow
-    cache's start at its placement), or None."""
+    """The region object's world bounding box in the skin's coordinates, or None."""
     box = settings.region
     if box is None:
         return None
     corners = [box.matrix_world @ mathutils.Vector(c) for c in box.bound_box]
     lo = [min(c[i] for c in corners) for i in range(3)]
     hi = [max(c[i] for c in corners) for i in range(3)]
-    if settings.source == "MANTAFLOW" and settings.emitter is not None:
-        fluid, _ = _mantaflow_domain(settings)
-        at = _mantaflow_placement(settings.emitter, fluid)
+    at = _skin_shift(settings)
+    if at is not None:
         lo, hi = ([v[i] - at[i] for i in range(3)] for v in (lo, hi))
     return tuple(lo), tuple(hi)
+
+
+def _write_colliders(settings, depsgraph, path):
+    """The Colliders collection's objects (their evaluated meshes, modifiers applied) as
+    one OBJ at `path`, in the skin's coordinates; written to a temporary name, then
+    renamed."""
+    triangles, vertices, count = [], [], 0
+    for obj in settings.colliders.all_objects:
+        if obj.type not in {"MESH", "CURVE", "SURFACE", "META", "FONT"}:
+            continue
+        evaluated = obj.evaluated_get(depsgraph)
+        mesh = evaluated.to_mesh()
+        try:
+            mesh.calc_loop_triangles()
+            n, t = len(mesh.vertices), len(mesh.loop_triangles)
+            co = np.empty(3 * n, np.float64)
+            mesh.vertices.foreach_get("co", co)
+            tri = np.empty(3 * t, np.int64)
+            mesh.loop_triangles.foreach_get("vertices", tri)
+        finally:
+            evaluated.to_mesh_clear()
+        matrix = np.array(evaluated.matrix_world, np.float64)
+        vertices.append(co.reshape(n, 3) @ matrix[:3, :3].T + matrix[:3, 3])
+        triangles.append(tri.reshape(t, 3) + count)
+        count += n
+    if not count or not sum(len(t) for t in triangles):
+        raise ValueError(f"Colliders: {settings.colliders.name} holds no mesh")
+    vertices = np.concatenate(vertices)
+    at = _skin_shift(settings)
+    if at is not None:
+        vertices -= np.array(at, np.float64)
+    partial = path + ".partial"
+    with open(partial, "w") as out:
+        np.savetxt(out, vertices, fmt="v %.9g %.9g %.9g")
+        np.savetxt(out, np.concatenate(triangles) + 1, fmt="f %d %d %d")
+    os.replace(partial, path)
+
+
+def _collider_options(settings, folder, preview=False):
+    """The skin's collider= arguments for the Colliders collection: its OBJ in `folder`
+    (a frame pattern when they move, each frame written by _collider_frame); none without."""
+    if settings.colliders is None:
+        return {}
+    moving, still = (PREVIEW_COLLIDER_FRAMES, PREVIEW_COLLIDER_NAME) if preview else (COLLIDER_FRAMES, COLLIDER_NAME)
+    return {
+        "collider": os.path.join(folder, moving if settings.colliders_move else still),
+        "collider_gap": settings.collider_gap or None,
+        "collider_depth": settings.collider_depth,
+    }
+
+
+def _collider_frame(settings, depsgraph, options, frame):
+    """Writes the colliders' file the skin reads for `frame`: each frame's when they move."""
+    if options and settings.colliders_move:
+        _write_colliders(settings, depsgraph, _frame_path(options["collider"], frame))
 
 
 def _frame_particles(settings, scene, depsgraph, frame):
@@ -340,8 +433,16 @@ class Bake:
                     "(make wheel-vdb), this one was built without"
                 )
             self.domain, self.pattern = _mantaflow_domain(s)
+        if s.colliders is not None and not activeskin.HAS_VDB:
+            raise ValueError(
+                "Colliders are read with activeskin built with OpenVDB (make wheel-vdb), "
+                "this one was built without"
+            )
         self.cache = _cache_dir(s)
         os.makedirs(self.cache, exist_ok=True)
+        self.colliders = _collider_options(s, self.cache)
+        if self.colliders and not s.colliders_move:
+            _write_colliders(s, context.evaluated_depsgraph_get(), self.colliders["collider"])
         done = s.frame_start - 1
         while done < s.frame_end and os.path.isfile(self._cached(done + 1)):
             done += 1
@@ -368,6 +469,7 @@ class Bake:
                 fps=fps,
                 velocity_grid=s.write_vdb,
                 region=_region_of(s),
+                **self.colliders,
             )
         else:
             self.skin = activeskin.ParticleSkin(
@@ -380,6 +482,7 @@ class Bake:
                 first_frame=self.first,
                 velocity_grid=s.write_vdb,
                 region=_region_of(s),
+                **self.colliders,
             )
         self.total = len(self.frames)
 
@@ -392,6 +495,15 @@ class Bake:
             return False
         frame = self.frames.pop(0)
         s = self.settings
+        moving = self.colliders and s.colliders_move
+        if s.source in ("PARTICLES", "POINTS") or moving:
+            global _baking
+            _baking = True
+            try:
+                self.scene.frame_set(frame)
+            finally:
+                _baking = False
+        _collider_frame(s, context.evaluated_depsgraph_get(), self.colliders, frame)
         if s.source == "MANTAFLOW":
             path = _frame_path(self.pattern, frame)
             if not os.path.isfile(path):
@@ -399,13 +511,6 @@ class Bake:
             mesh = self.skin.advance(path, self.velocity, grid="phi")
             self._write(frame, mesh)
             return True
-        if s.source in ("PARTICLES", "POINTS"):
-            global _baking
-            _baking = True
-            try:
-                self.scene.frame_set(frame)
-            finally:
-                _baking = False
         positions, velocities, ids = _frame_particles(s, self.scene, context.evaluated_depsgraph_get(), frame)
         mesh = self.skin.advance(positions, velocities=velocities, ids=ids)
         self._write(frame, mesh)
@@ -608,17 +713,25 @@ def preview_frame(scene, depsgraph):
     frame = scene.frame_current
     voxel = (s.voxel_size or activeskin.particle_voxel_size(s.radius)) * s.preview_coarsening
     fps = scene.render.fps / scene.render.fps_base
+    folder = _cache_dir(s)
+    colliders = _collider_options(s, folder, preview=True)
     key = (s.source, s.emitter and s.emitter.name, s.particle_system, s.pattern, s.radius,
-           voxel, s.alpha, _tension(s), s.smooth, s.use_velocity, _region_of(s), fps)
+           voxel, s.alpha, _tension(s), s.smooth, s.use_velocity, _region_of(s), fps,
+           s.colliders and s.colliders.name, s.colliders_move, s.collider_gap, s.collider_depth)
     same = _preview["skin"] is not None and _preview["key"] == key
     if same and _preview["frame"] == frame:
         return True
     carried = same and _preview["frame"] == frame - 1
+    if colliders:
+        os.makedirs(folder, exist_ok=True)
+        if not carried and not s.colliders_move:
+            _write_colliders(s, depsgraph, colliders["collider"])
+        _collider_frame(s, depsgraph, colliders, frame)
     if not carried:
         _preview.update(skin=None, frame=None, key=key)
         _preview["skin"] = activeskin.ParticleSkin(
             s.radius, voxel_size=voxel, alpha=s.alpha, beta=_tension(s), smooth=s.smooth,
-            fps=fps, first_frame=frame, region=_region_of(s),
+            fps=fps, first_frame=frame, region=_region_of(s), **colliders,
         )
     positions, velocities, ids = _frame_particles(s, scene, depsgraph, frame)
     mesh = _preview["skin"].advance(positions, velocities=velocities, ids=ids)
@@ -670,6 +783,12 @@ class ACTIVESKIN_PT_panel(bpy.types.Panel):
             layout.prop(s, "beta")
         layout.prop(s, "use_velocity")
         layout.prop(s, "region")
+        layout.prop(s, "colliders")
+        if s.colliders is not None:
+            row = layout.row(align=True)
+            row.prop(s, "collider_gap")
+            row.prop(s, "collider_depth")
+            layout.prop(s, "colliders_move")
         row = layout.row(align=True)
         row.prop(s, "frame_start")
         row.prop(s, "frame_end")

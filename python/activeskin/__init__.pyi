@@ -83,6 +83,10 @@ class ParticleSkin:
         ignore_radii: bool = False,
         volume_reference: tuple[int, npt.ArrayLike, npt.ArrayLike | None] | None = None,
         velocity_grid: bool = False,
+        region: tuple[Sequence[float], Sequence[float]] | None = None,
+        collider: str | PathLike[str] | None = None,
+        collider_gap: float | None = None,
+        collider_depth: float = 0.0,
     ) -> None:
         """radius: half the particles' rest spacing; voxel_size defaults to radius/2;
         alpha (1/s) the attraction; beta (world units²/s) the surface tension, by default
@@ -93,7 +97,12 @@ class ParticleSkin:
         frame when the skin starts later (the volume those particles stand for is held,
         as the command holds it); velocity_grid: the surface's velocity at the skin's
         voxels too, each frame, which save_vdb writes as grid v as the command's --out
-        does (on the dam break it adds about half to a frame's time).
+        does (on the dam break it adds about half to a frame's time);
+        region: ((x0, y0, z0), (x1, y1, z1)), the surfaces cut to that box and open on
+        its sides (the command's --region); collider: a VDB level set or a closed OBJ
+        (or a frame pattern of them, # for the number) the surfaces meet, carried on to
+        it where the skin comes within collider_gap (3 radii by default) and
+        collider_depth into it (the command's --collider; needs HAS_VDB).
         Raises ValueError with the command's message for parameters that cannot make a
         skin."""
 
@@ -150,6 +159,10 @@ class LevelSetSkin:
         origin: tuple[float, float, float] = (0.0, 0.0, 0.0),
         grid: str | None = None,
         velocity_grid: bool = False,
+        region: tuple[Sequence[float], Sequence[float]] | None = None,
+        collider: str | PathLike[str] | None = None,
+        collider_gap: float | None = None,
+        collider_depth: float = 0.0,
     ) -> None:
         """voxel_size: the skin's, by default the first target's; alpha (1/s) the
         attraction; beta the surface tension (default alpha·voxel²/8); smooth: smoothing
@@ -161,7 +174,8 @@ class LevelSetSkin:
         the shape to start on instead of the first target (its `grid`); spacing, origin:
         where array targets' voxels are (voxel (i, j, k) at origin + (i, j, k)·spacing);
         velocity_grid: the surface's velocity at the skin's voxels too, which save_vdb
-        writes as grid v (as the command's --out).
+        writes as grid v (as the command's --out); region, collider, collider_gap
+        (4 voxels by default), collider_depth: as ParticleSkin's.
         Raises ValueError with the command's message for parameters that cannot make a
         skin."""
 

@@ -167,3 +167,19 @@ pub(crate) fn region_box(region: &Bound<'_, PyAny>) -> PyResult<activeskin::grid
         )),
     }
 }
+
+/// `collider=` (a VDB level set or a closed OBJ, or a frame pattern of them, `#` for the
+/// frame number) with `collider_gap=` and `collider_depth=`, as the command's
+/// `--collider`.
+pub(crate) fn collider_spec(
+    files: Option<std::path::PathBuf>,
+    gap: Option<f32>,
+    depth: f32,
+) -> PyResult<Option<activeskin::frames::ColliderSpec>> {
+    let Some(files) = files else {
+        return Ok(None);
+    };
+    let files = files.to_string_lossy();
+    let spec = activeskin::frames::ColliderSpec::new(&files, gap, depth).map_err(value_error)?;
+    Ok(Some(spec))
+}

@@ -197,7 +197,7 @@ pub(crate) struct LevelSetSkin {
 #[pymethods]
 impl LevelSetSkin {
     #[new]
-    #[pyo3(signature = (*, voxel_size=None, alpha=DEFAULT_ALPHA, beta=None, smooth=None, volume_gain=0.0, area_gain=0.0, fps=DEFAULT_FPS, velocities=true, velocity_time="start", velocity_scale=1.0, iso=None, units="auto", first_frame=1, seed=true, init=None, spacing=None, origin=(0.0, 0.0, 0.0), grid=None, velocity_grid=false, region=None))]
+    #[pyo3(signature = (*, voxel_size=None, alpha=DEFAULT_ALPHA, beta=None, smooth=None, volume_gain=0.0, area_gain=0.0, fps=DEFAULT_FPS, velocities=true, velocity_time="start", velocity_scale=1.0, iso=None, units="auto", first_frame=1, seed=true, init=None, spacing=None, origin=(0.0, 0.0, 0.0), grid=None, velocity_grid=false, region=None, collider=None, collider_gap=None, collider_depth=0.0))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -221,6 +221,9 @@ impl LevelSetSkin {
         grid: Option<String>,
         velocity_grid: bool,
         region: Option<Bound<'_, PyAny>>,
+        collider: Option<std::path::PathBuf>,
+        collider_gap: Option<f32>,
+        collider_depth: f32,
     ) -> PyResult<Self> {
         let timing = match velocity_time {
             "start" => Timing::Start,
@@ -260,6 +263,7 @@ impl LevelSetSkin {
             seed,
             init,
             region: region.map(|r| region_box(&r)).transpose()?,
+            collider: collider_spec(collider, collider_gap, collider_depth)?,
         };
         let stream = py
             .detach(|| LevelSetStream::start(spec))

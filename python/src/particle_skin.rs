@@ -27,7 +27,7 @@ pub(crate) struct ParticleSkin {
 #[pymethods]
 impl ParticleSkin {
     #[new]
-    #[pyo3(signature = (radius, *, voxel_size=None, alpha=DEFAULT_ALPHA, beta=None, smooth=None, smoothing_length=DEFAULT_SMOOTHING_LENGTH, iso=None, fps=DEFAULT_FPS, velocities=true, hold_volume=true, attributes=None, first_frame=1, ignore_radii=false, volume_reference=None, velocity_grid=false, region=None))]
+    #[pyo3(signature = (radius, *, voxel_size=None, alpha=DEFAULT_ALPHA, beta=None, smooth=None, smoothing_length=DEFAULT_SMOOTHING_LENGTH, iso=None, fps=DEFAULT_FPS, velocities=true, hold_volume=true, attributes=None, first_frame=1, ignore_radii=false, volume_reference=None, velocity_grid=false, region=None, collider=None, collider_gap=None, collider_depth=0.0))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         radius: f32,
@@ -46,6 +46,9 @@ impl ParticleSkin {
         volume_reference: Option<Reference>,
         velocity_grid: bool,
         region: Option<Bound<'_, PyAny>>,
+        collider: Option<std::path::PathBuf>,
+        collider_gap: Option<f32>,
+        collider_depth: f32,
     ) -> PyResult<Self> {
         let defaults = ParticleInput::with_radius(radius);
         let choice = match attributes {
@@ -102,6 +105,7 @@ impl ParticleSkin {
             first_frame,
             reference,
             region: region.map(|r| region_box(&r)).transpose()?,
+            collider: collider_spec(collider, collider_gap, collider_depth)?,
         };
         let stream = ParticleStream::start(spec).map_err(value_error)?;
         Ok(ParticleSkin {

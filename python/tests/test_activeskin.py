@@ -7,6 +7,7 @@ after it builds the wheel with maturin into a venv of its own.
 import os
 import pathlib
 import subprocess
+import tempfile
 import threading
 import time
 
@@ -540,3 +541,69 @@ def test_skin_sequence_measures_the_velocity_as_the_command_does(binary, tmp_pat
                              velocity_time="start")
     for f in range(1, 9):
         assert (tmp_path / "py1" / f"m.{f:04d}.ply").read_bytes() == (tmp_path / "cli1" / f"m.{f:04d}.ply").read_bytes(), f
+
+
+def write_box_obj(path, lo, hi):
+    """A closed box, outward, as an OBJ mesh."""
+    corners = [[hi[a] if c >> a & 1 else lo[a] for a in range(3)] for c in range(8)]
+    quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]]
+    lines = ["v %r %r %r" % tuple(c) for c in corners]
+    for a, b, c, d in quads:
+        lines += [f"f {a + 1} {b + 1} {c + 1}", f"f {a + 1} {c + 1} {d + 1}"]
+    path.write_text("\n".join(lines) + "\n")
+
+
+@needs_vdb
+def test_collider_is_the_commands(binary, tmp_path):
+    """collider= is the command's --collider: the ball meets the floor under it, with the
+    command's meshes byte for byte; bad colliders raise with the argument named."""
+    data, cli = tmp_path / "data", tmp_path / "cli"
+    for d in (data, cli):
+        d.mkdir()
+    floor = tmp_path / "floor.obj"
+    write_box_obj(floor, (-1, -1, -1), (1, -0.23, 1))
+    for f in range(1, 4):
+        write_ply(data / f"p.{f:04d}.ply", *ball(f))
+    subprocess.run(
+        [binary, "particles", "--particles", str(data / "p.####.ply"), "--radius", str(R),
+         "--collider", str(floor), "--collider-depth", "0.005",
+         "--mesh", str(cli / "m.####.ply"), "-q"],
+        check=True,
+    )
+    met = activeskin.ParticleSkin(R, collider=floor, collider_depth=0.005)
+    plain = activeskin.ParticleSkin(R)
+    for f in range(1, 4):
+        p, ids, _ = ball(f)
+        mesh, free = met.advance(p, ids=ids), plain.advance(p, ids=ids)
+        # Down to the floor and 0.005 into it, where the free ball stops short of it.
+        assert abs(mesh.vertices[:, 1].min() + 0.235) < 0.25 * R, mesh.vertices[:, 1].min()
+        assert free.vertices[:, 1].min() > -0.23 + 0.25 * R
+        assert mesh.stats["volume"] == free.stats["volume"]
+        mesh.save(tmp_path / "m.ply")
+        assert (tmp_path / "m.ply").read_bytes() == (cli / f"m.{f:04d}.ply").read_bytes()
+    with pytest.raises(ValueError, match="collider= '.*floor.stl': a collider is a VDB"):
+        activeskin.ParticleSkin(R, collider=tmp_path / "floor.stl")
+    with pytest.raises(ValueError, match="collider_gap= must be a number of world units"):
+        activeskin.ParticleSkin(R, collider=floor, collider_gap=-1)
+    missing = activeskin.ParticleSkin(R, collider=tmp_path / "none.####.obj")
+    with pytest.raises(ValueError, match="none.0001.obj"):
+        missing.advance(ball(1)[0])
+
+
+@needs_vdb
+def test_a_level_set_skin_meets_a_collider():
+    """collider= on LevelSetSkin: a sphere 0.1 over a floor is carried down onto it (its
+    gap 0.15), its skin (area, volume) the free sphere's."""
+    spacing, origin = 0.05, -1.0
+    phi = dense(40, spacing, origin, lambda x, y, z: np.sqrt(x * x + y * y + z * z) - 0.6)
+    with tempfile.TemporaryDirectory() as d:
+        floor = pathlib.Path(d) / "floor.obj"
+        write_box_obj(floor, (-2, -2, -2), (2, 2, -0.7))
+        free = activeskin.LevelSetSkin(spacing=spacing, origin=(origin,) * 3)
+        met = activeskin.LevelSetSkin(spacing=spacing, origin=(origin,) * 3,
+                                      collider=floor, collider_gap=0.15)
+        for _ in range(3):
+            a, b = free.advance(phi), met.advance(phi)
+    assert abs(a.vertices[:, 2].min() + 0.6) < 0.2 * spacing
+    assert abs(b.vertices[:, 2].min() + 0.7) < 0.2 * spacing
+    assert b.stats["volume"] == a.stats["volume"] and b.stats["area"] == a.stats["area"]

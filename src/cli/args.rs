@@ -246,27 +246,12 @@ impl OutputArgs {
     }
 
     fn collider_spec(&self) -> anyhow::Result<Option<activeskin::frames::ColliderSpec>> {
-        use activeskin::frames::{ColliderFiles, ColliderSpec};
-        let Some(spec) = &self.collider else {
+        let Some(files) = &self.collider else {
             return Ok(None);
         };
-        for (flag, value) in [
-            ("--collider-gap", self.collider_gap.unwrap_or(1.0)),
-            ("--collider-depth", self.collider_depth),
-        ] {
-            if !(value.is_finite() && value >= 0.0) {
-                usage!("{flag} must be a non-negative number of world units, got {value}");
-            }
-        }
-        let files = match activeskin::sequence::FramePattern::parse(spec) {
-            Ok(pattern) => ColliderFiles::Frames(pattern),
-            Err(_) => ColliderFiles::One(PathBuf::from(spec)),
-        };
-        Ok(Some(ColliderSpec {
-            files,
-            gap: self.collider_gap,
-            depth: self.collider_depth,
-        }))
+        let spec =
+            activeskin::frames::ColliderSpec::new(files, self.collider_gap, self.collider_depth)?;
+        Ok(Some(spec))
     }
 
     fn usd_spec(&self) -> anyhow::Result<Option<UsdSpec>> {

@@ -145,10 +145,7 @@ pub fn run(args: &ParticlesArgs) -> anyhow::Result<()> {
             .collect(),
         ..args.outputs.spec()?
     };
-    if let Some(collider) = spec.collider.as_mut() {
-        // Past the shell a particle skin closes about a radius off a wall.
-        collider.gap.get_or_insert(3.0 * particles.radius);
-    }
+    spec.collider = spec.collider.map(|c| c.for_particles(particles.radius));
     let mut outputs = Outputs::new(&spec, (write_from, input.range.1))?;
     if particles.attributes != AttributeChoice::None && !outputs.vertices_hold_values() {
         usage!("--attribute writes PLY vertex properties or USD primvars: give a --mesh pattern ending in .ply, or --usd");

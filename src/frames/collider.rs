@@ -5,7 +5,9 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
+use super::usage::non_negative;
 use super::{DataError, FrameError, UsageError};
+use crate::field::Field;
 use crate::sequence::FramePattern;
 use crate::target::{liquid_origin, meet_collider, ColliderGrid, Target};
 use crate::volume::GridData;
@@ -35,7 +37,34 @@ pub struct ColliderSpec {
 /// radius (two voxels at its default voxel) off a wall.
 pub const DEFAULT_GAP_VOXELS: f32 = 4.0;
 
+/// A particle skin's gap when none is given, in particle radii: SPH solvers keep their
+/// particles about two radii off a wall, and the skin closes a radius past them.
+pub const PARTICLE_GAP_RADII: f32 = 3.0;
+
 impl ColliderSpec {
+    /// `files` (a file, or a frame pattern with `#`), checked as every front end takes it:
+    /// a gap and a depth of zero or more world units.
+    pub fn new(files: &str, gap: Option<f32>, depth: f32) -> Result<Self, FrameError> {
+        for (field, value) in [
+            (Field::ColliderGap, gap.unwrap_or(0.0)),
+            (Field::ColliderDepth, depth),
+        ] {
+            non_negative(field, f64::from(value))?;
+        }
+        let files = match FramePattern::parse(files) {
+            Ok(pattern) => ColliderFiles::Frames(pattern),
+            Err(_) => ColliderFiles::One(PathBuf::from(files)),
+        };
+        Ok(ColliderSpec { files, gap, depth })
+    }
+
+    /// A particle skin's: past the shell it closes about a radius off a wall, so the gap,
+    /// when not given, is [`PARTICLE_GAP_RADII`] radii.
+    pub fn for_particles(mut self, radius: f32) -> Self {
+        self.gap.get_or_insert(PARTICLE_GAP_RADII * radius);
+        self
+    }
+
     /// The file of `frame`.
     fn path(&self, frame: i64) -> PathBuf {
         match &self.files {
@@ -45,7 +74,7 @@ impl ColliderSpec {
     }
 
     /// Checked before the run: a kind of file it can read, and OpenVDB to read it.
-    pub(crate) fn check(&self) -> Result<(), FrameError> {
+    pub fn check(&self) -> Result<(), FrameError> {
         if cfg!(not(feature = "vdb")) {
             return Err(UsageError::ColliderWithoutVdb.into());
         }

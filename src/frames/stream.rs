@@ -14,6 +14,7 @@ use std::time::Duration;
 use glam::Vec3;
 
 use super::outputs::check_region;
+use super::ColliderSpec;
 use super::{
     target_from_grid, DataError, FrameError, InputFrames, OutputSpec, Outputs, ParticleInput,
     ParticleRun, ParticleSource, Surface, SurfaceSink, TargetRead, TargetUnits, UsageError,
@@ -70,6 +71,8 @@ pub struct StreamSpec {
     pub reference: Option<(i64, Particles)>,
     /// The box the surfaces handed back are cut to ([`OutputSpec::region`]).
     pub region: Option<Aabb>,
+    /// What the surfaces handed back meet ([`OutputSpec::collider`]).
+    pub collider: Option<ColliderSpec>,
 }
 
 /// A skin advanced by frames of `T` handed over one at a time.
@@ -134,6 +137,10 @@ impl FrameStream<Particles> {
         }
         spec.params.check()?;
         spec.region.map(check_region).transpose()?;
+        spec.collider
+            .as_ref()
+            .map(ColliderSpec::check)
+            .transpose()?;
         FrameStream::spawn(spec.velocity_grid, move |handed, sink| {
             let source = Handed {
                 frames: handed,
@@ -266,7 +273,8 @@ fn run(spec: StreamSpec, mut source: Handed, sink: SurfaceSink) -> Result<(), Fr
         // Open-ended: the loop ends when the caller hands no more frames.
         range: (first, i64::MAX),
     };
-    let mut outputs = sink_outputs(sink, (spec.velocities, spec.region), first)?;
+    let collider = (spec.collider.clone()).map(|c| c.for_particles(spec.particles.radius));
+    let mut outputs = sink_outputs(sink, (spec.velocities, spec.region, collider), first)?;
     let run = ParticleRun {
         input: &input,
         particles: &spec.particles,
@@ -280,10 +288,11 @@ fn run(spec: StreamSpec, mut source: Handed, sink: SurfaceSink) -> Result<(), Fr
 }
 
 /// Outputs that hand each frame's surface to `sink` (with the surface's velocity where
-/// `velocities`; cut to `region` when given), from frame `first` on, and write nothing.
+/// `velocities`; cut to `region` and meeting `collider` when given), from frame `first` on,
+/// and write nothing.
 fn sink_outputs(
     sink: SurfaceSink,
-    (velocities, region): (bool, Option<Aabb>),
+    (velocities, region, collider): (bool, Option<Aabb>, Option<ColliderSpec>),
     first: i64,
 ) -> Result<Outputs, FrameError> {
     let spec = OutputSpec {
@@ -301,7 +310,7 @@ fn sink_outputs(
         usd: None,
         surfaces: Some(sink),
         region,
-        collider: None,
+        collider,
     };
     Outputs::new(&spec, (first, i64::MAX))
 }
@@ -347,6 +356,8 @@ pub struct LevelSetSpec {
     pub init: Option<LevelSetFrame>,
     /// The box the surfaces handed back are cut to ([`OutputSpec::region`]).
     pub region: Option<Aabb>,
+    /// What the surfaces handed back meet ([`OutputSpec::collider`]).
+    pub collider: Option<ColliderSpec>,
 }
 
 /// A skin advanced by level sets (or fog volumes) handed over one frame at a time.
@@ -365,6 +376,10 @@ impl FrameStream<LevelSetFrame> {
             .params(spec.physics.voxel_size.unwrap_or(1.0))
             .check()?;
         spec.region.map(check_region).transpose()?;
+        spec.collider
+            .as_ref()
+            .map(ColliderSpec::check)
+            .transpose()?;
         FrameStream::spawn(spec.velocity_grid, move |handed, sink| {
             run_level_sets(spec, handed, sink)
         })
@@ -388,7 +403,8 @@ fn run_level_sets(
     let run = super::LevelSetRun::start(source, first)?;
     let params = spec.physics.params(run.voxel_size());
     params.check()?;
-    let mut outputs = sink_outputs(sink, (spec.velocities, spec.region), first)?;
+    let looks = (spec.velocities, spec.region, spec.collider.clone());
+    let mut outputs = sink_outputs(sink, looks, first)?;
     let plan = super::LevelSetPlan {
         range: (first, i64::MAX),
         write_from: first,

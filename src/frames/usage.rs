@@ -19,6 +19,9 @@ pub enum UsageError {
     /// A setting that must be a finite number.
     #[error("{field} must be a number, got {}", Number(*value))]
     NotANumber { field: Field, value: f64 },
+    /// A length that must be a finite number, zero or more.
+    #[error("{field} must be a number of world units, zero or more, got {}", Number(*value))]
+    Negative { field: Field, value: f64 },
     /// A length past what 32-bit floats hold the areas of.
     #[error(
         "{field} {value} is beyond {:e} world units: 32-bit floats cannot hold the areas of such voxels",
@@ -192,6 +195,14 @@ pub(crate) fn finite(field: Field, value: f64) -> Result<(), UsageError> {
     match value.is_finite() {
         true => Ok(()),
         false => Err(UsageError::NotANumber { field, value }),
+    }
+}
+
+/// `value` unless it is a finite number, zero or more.
+pub(crate) fn non_negative(field: Field, value: f64) -> Result<(), UsageError> {
+    match value.is_finite() && value >= 0.0 {
+        true => Ok(()),
+        false => Err(UsageError::Negative { field, value }),
     }
 }
 

@@ -2,7 +2,8 @@
 //! wall, so a skin closes into a rounded shell there; rendered behind glass or against an
 //! obstacle, the liquid should touch it. Where the skin comes within `gap` of the
 //! collider, its level set is carried straight on along the collider's normal into it
-//! (what the liquid is at `gap` from the wall, it is at the wall) and cut `depth` inside:
+//! (whatever liquid lies within `gap` over a point of the wall reaches down to it; none
+//! is taken away) and cut `depth` inside:
 //! the surface meets the collider's face (depth 0) or runs into it so that a renderer's
 //! liquid and glass overlap. Away from the collider nothing changes. The skin itself is
 //! not touched: this makes the level set the outputs mesh.
@@ -185,29 +186,40 @@ pub fn meet_collider(
                 (None, false) => background,
             };
             let mut values = [background; LEAF_VOXELS];
-            let mut flipped = false;
+            let mut moved = false;
             for (o, v) in values.iter_mut().enumerate() {
                 let c = kept[o];
                 *v = match c >= gap {
                     true => stored(o),
                     false => {
                         let p = collider.world(b * 8 + offset_coords(o));
-                        met(p, c, &sample, collider, (gap, depth), background)
+                        // The union of the node's own liquid and the liquid carried
+                        // there (a film thinner than the gap lying on the collider
+                        // stays), cut `depth` inside the collider.
+                        let cut = -(c + depth);
+                        let liquid = match cut > 0.0 {
+                            true => -background, // past the depth: only the cut counts
+                            false => stored(o).min(carried(p, c, &sample, collider, gap)),
+                        };
+                        liquid.max(cut).clamp(-background, background)
                     }
                 };
-                flipped |= (*v < 0.0) != (stored(o) < 0.0);
+                // A node near the surface whose value changed moves it.
+                let was = stored(o);
+                moved |=
+                    (*v < 0.0) != (was < 0.0) || (*v != was && (v.abs() < dx || was.abs() < dx));
             }
             let outside = values.iter().all(|&v| v >= background);
             let was = leaves.contains_key(&b) || tiles.contains(&b);
             match (outside, was) {
                 (true, false) => None,
-                (true, true) => Some((b, None, flipped)),
-                _ => Some((b, Some(values), flipped)),
+                (true, true) => Some((b, None, moved)),
+                _ => Some((b, Some(values), moved)),
             }
         })
         .collect();
-    // The surface moves only where a node changes sides.
-    if !changed.iter().any(|&(.., flipped)| flipped) {
+    // Nothing to change unless the surface moves.
+    if !changed.iter().any(|&(.., moved)| moved) {
         return None;
     }
     let changed = changed.into_iter().map(|(b, v, _)| (b, v)).collect();
@@ -219,35 +231,31 @@ pub fn liquid_origin(liquid: &GridData) -> Vec3 {
     Vec3::from(liquid.transform.index_to_world([0.0; 3]).map(|c| c as f32))
 }
 
-/// The met level set at `p`, `c` from the collider (less than `gap`): the liquid's
-/// carried from `gap` out along the collider's normal, cut `depth` inside it; within
-/// ±`background`.
-fn met(
-    p: Vec3,
-    c: f32,
-    liquid: &LevelSetTarget,
-    collider: &ColliderGrid,
-    (gap, depth): (f32, f32),
-    background: f32,
-) -> f32 {
-    if c <= -depth {
-        // Past the depth: outside, by as much as the cut says (the liquid carried there
-        // would be cut anyway; its value only moved the cap's rim, inside the collider).
-        return (-(c + depth)).min(background);
-    }
+/// The liquid carried to `p`, `c` from the collider (less than `gap`): the least of the
+/// liquid's level set along the way from `p` out along the collider's normal to `gap` —
+/// whatever liquid lies within the gap over `p`, a body's face or a film thinner than the
+/// gap, reaches down to it.
+fn carried(p: Vec3, c: f32, liquid: &LevelSetTarget, collider: &ColliderGrid, gap: f32) -> f32 {
     // Out along the collider's normal to `gap`, again from there while another face of
     // it (a floor under a wall) is still nearer: into a corner, the liquid is carried
     // from where it is clear of both.
     let (mut q, (mut at, mut normal)) = (p, collider.sample(p));
+    debug_assert!((at - c).abs() <= 1e-6 * c.abs().max(1.0));
+    let step = collider.dx;
+    let mut least = f32::INFINITY;
     for _ in 0..4 {
         if at >= gap {
             break;
         }
-        q += normal.normalize_or_zero() * (gap - at);
+        let leg = normal.normalize_or_zero() * (gap - at);
+        let n = (leg.length() / step).ceil().max(1.0);
+        for k in 1..=n as u32 {
+            least = least.min(liquid.trilinear(q + leg * (k as f32 / n)));
+        }
+        q += leg;
         (at, normal) = collider.sample(q);
     }
-    let carried = liquid.trilinear(q);
-    carried.max(-(c + depth)).clamp(-background, background)
+    least
 }
 
 /// The liquid's inside tiles as leaf-sized blocks (the skin writes them so; larger ones,
@@ -327,8 +335,13 @@ mod tests {
     /// A slab of liquid standing `off` from a wall at x = 0 (the collider: x < 0), as a
     /// level set of voxel `dx`: the liquid is x ∈ [off, 0.4], |y|, |z| < 0.2.
     fn slab(off: f32, dx: f32) -> GridData {
+        film(off, 0.4, dx)
+    }
+
+    /// The liquid x ∈ [from, to], |y|, |z| < 0.2, as a level set of voxel `dx`.
+    fn film(from: f32, to: f32, dx: f32) -> GridData {
         let background = 3.0 * dx;
-        let (lo, hi) = (Vec3::new(off, -0.2, -0.2), Vec3::new(0.4, 0.2, 0.2));
+        let (lo, hi) = (Vec3::new(from, -0.2, -0.2), Vec3::new(to, 0.2, 0.2));
         let liquid = BoxShape {
             center: 0.5 * (lo + hi),
             half_size: 0.5 * (hi - lo),
@@ -422,6 +435,18 @@ mod tests {
             let side = |z: f32| at(&met, Vec3::new(0.01, 0.0, z));
             assert!(side(0.19) < 0.0 && side(0.21) > 0.0);
         }
+        // A film thinner than the gap lying on the wall (the liquid carried from the gap
+        // is air): it stays, and meets the wall.
+        let thin = film(0.01, 0.03, dx);
+        let mut wall_grid = ColliderGrid::new(wall.clone(), liquid_origin(&thin), dx);
+        let met = meet_collider(&thin, &mut wall_grid, 0.05, 0.0).expect("the film is near");
+        for x in [0.002, 0.01, 0.02, 0.028] {
+            assert!(
+                at(&met, Vec3::new(x, 0.0, 0.05)) < 0.0,
+                "{x}: the film is gone"
+            );
+        }
+        assert!(at(&met, Vec3::new(0.035, 0.0, 0.05)) > 0.0);
         // Liquid farther than the gap from the wall: nothing changes.
         let far = slab(0.1, dx);
         let mut wall = ColliderGrid::new(Arc::new(Wall), liquid_origin(&far), dx);
