@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 mod check;
 mod clip;
-mod nearest;
+pub(crate) mod nearest;
 mod relax;
 
 pub use check::MeshCheck;

@@ -3,6 +3,7 @@
 
 mod backtracked;
 mod collider;
+mod mesh_shape;
 mod particles;
 pub mod sample;
 mod shapes;
@@ -14,6 +15,7 @@ use crate::grid::Aabb;
 
 pub use backtracked::Backtracked;
 pub use collider::{liquid_origin, meet_collider, ColliderGrid};
+pub use mesh_shape::{MeshShape, OpenMesh};
 pub use particles::{
     fluid_iso, iso_for_radius, kernel, rest_density, Density, DensityGrid,
     DEFAULT_SMOOTHING_LENGTH, MAX_SMOOTHING_LENGTH, SPRAY_LINK, SPRAY_MOST, VELOCITY_SUPPORT_RADII,

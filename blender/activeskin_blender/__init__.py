@@ -433,11 +433,6 @@ class Bake:
                     "(make wheel-vdb), this one was built without"
                 )
             self.domain, self.pattern = _mantaflow_domain(s)
-        if s.colliders is not None and not activeskin.HAS_VDB:
-            raise ValueError(
-                "Colliders are read with activeskin built with OpenVDB (make wheel-vdb), "
-                "this one was built without"
-            )
         self.cache = _cache_dir(s)
         os.makedirs(self.cache, exist_ok=True)
         self.colliders = _collider_options(s, self.cache)

@@ -245,50 +245,48 @@ s.cache_dir = os.path.join(cache, "splash")
 # transform) in a Colliders collection, written into the cache as one OBJ as the bake
 # starts, is the command's --collider on that file; moving (keyframed down), one OBJ a
 # frame, the command's on their pattern.
-# Colliders are read with OpenVDB: run where the wheel has it (Debian's Blender).
-if activeskin_blender._activeskin().HAS_VDB:
-    BOX_QUADS = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]]
-    floor = bpy.data.objects.new("floor", bpy.data.meshes.new("floor"))
-    floor.data.from_pydata(
-        [tuple((1.5, 0.25, 1.5)[a] * (1 if c >> a & 1 else -1) for a in range(3)) for c in range(8)],
-        [], BOX_QUADS,
+BOX_QUADS = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]]
+floor = bpy.data.objects.new("floor", bpy.data.meshes.new("floor"))
+floor.data.from_pydata(
+    [tuple((1.5, 0.25, 1.5)[a] * (1 if c >> a & 1 else -1) for a in range(3)) for c in range(8)],
+    [], BOX_QUADS,
+)
+floor.location = (1.5, 0.75, 1.5)  # the world's y from 0.5 to 1.0, the splash's floor
+colliders = bpy.data.collections.new("colliders")
+colliders.objects.link(floor)
+scene.collection.children.link(colliders)
+floor.hide_render = True
+s.colliders = colliders
+s.collider_depth = 0.01
+for moving in (False, True):
+    s.colliders_move = moving
+    if moving:
+        floor.keyframe_insert("location", frame=1)
+        floor.location.y = 0.65
+        floor.keyframe_insert("location", frame=36)
+    s.cache_dir = os.path.join(cache, "splash_moving_floor" if moving else "splash_floor")
+    assert bpy.ops.activeskin.bake() == {"FINISHED"}
+    folder = bpy.path.abspath(s.cache_dir)
+    written = os.path.join(folder, "collider.####.obj" if moving else "collider.obj")
+    corners = np.array(obj_vertices(written.replace("####", "0036") if moving else written))
+    top = 0.9 if moving else 1.0
+    assert np.allclose(corners.min(0), (0, top - 0.5, 0)) and np.allclose(corners.max(0), (3, top, 3)), corners
+    cli = os.path.join(cache, "cli_moving_floor" if moving else "cli_floor", "m.{frame:04d}.obj")
+    subprocess.run(
+        [binary, "particles", "--particles", splash, "--radius", "0.04", "--alpha", "48",
+         "--collider", written, "--collider-depth", "0.01",
+         "--mesh", cli.replace("{frame:04d}", "####"), "-q"],
+        check=True,
     )
-    floor.location = (1.5, 0.75, 1.5)  # the world's y from 0.5 to 1.0, the splash's floor
-    colliders = bpy.data.collections.new("colliders")
-    colliders.objects.link(floor)
-    scene.collection.children.link(colliders)
-    floor.hide_render = True
-    s.colliders = colliders
-    s.collider_depth = 0.01
-    for moving in (False, True):
-        s.colliders_move = moving
-        if moving:
-            floor.keyframe_insert("location", frame=1)
-            floor.location.y = 0.65
-            floor.keyframe_insert("location", frame=36)
-        s.cache_dir = os.path.join(cache, "splash_moving_floor" if moving else "splash_floor")
-        assert bpy.ops.activeskin.bake() == {"FINISHED"}
-        folder = bpy.path.abspath(s.cache_dir)
-        written = os.path.join(folder, "collider.####.obj" if moving else "collider.obj")
-        corners = np.array(obj_vertices(written.replace("####", "0036") if moving else written))
-        top = 0.9 if moving else 1.0
-        assert np.allclose(corners.min(0), (0, top - 0.5, 0)) and np.allclose(corners.max(0), (3, top, 3)), corners
-        cli = os.path.join(cache, "cli_moving_floor" if moving else "cli_floor", "m.{frame:04d}.obj")
-        subprocess.run(
-            [binary, "particles", "--particles", splash, "--radius", "0.04", "--alpha", "48",
-             "--collider", written, "--collider-depth", "0.01",
-             "--mesh", cli.replace("{frame:04d}", "####"), "-q"],
-            check=True,
-        )
-        check_against_the_command("its files meeting a moving floor" if moving else "its files meeting a floor")
-        # The floor's face under the splash (no shell off it): down to 0.01 into it.
-        scene.frame_set(12)
-        lowest = min(v.co.y for v in bpy.data.objects["ActiveSkin"].data.vertices)
-        floor_at = floor.matrix_world.translation.y + 0.25
-        assert abs(lowest - (floor_at - 0.01)) < 0.01, (moving, lowest, floor_at)
-    s.colliders = None
-    cli = whole_cli
-    s.cache_dir = os.path.join(cache, "splash")
+    check_against_the_command("its files meeting a moving floor" if moving else "its files meeting a floor")
+    # The floor's face under the splash (no shell off it): down to 0.01 into it.
+    scene.frame_set(12)
+    lowest = min(v.co.y for v in bpy.data.objects["ActiveSkin"].data.vertices)
+    floor_at = floor.matrix_world.translation.y + 0.25
+    assert abs(lowest - (floor_at - 0.01)) < 0.01, (moving, lowest, floor_at)
+s.colliders = None
+cli = whole_cli
+s.cache_dir = os.path.join(cache, "splash")
 
 # The live preview: no bake, the surface rebuilt as the frame changes at twice the voxel
 # size, carried on while the frames step forward (frame 6 after 1–6 is the command's run
@@ -316,21 +314,20 @@ print("preview frame steps: " + ", ".join(f"{1e3 * t:.0f} ms" for t in steps))
 scene.frame_set(20)
 cli = os.path.join(cache, "cli_preview_jump", "m.{frame:04d}.obj")
 check_against_the_command("the live preview jumped to 20", frames=(20,))
-if activeskin_blender._activeskin().HAS_VDB:
-    # Meeting the floor: the preview writes the Colliders beside the cache as it starts
-    # (a jump to 10) and meets them as the command does at its voxel.
-    s.colliders, s.colliders_move = colliders, False
-    scene.frame_set(10)
-    written = os.path.join(bpy.path.abspath(s.cache_dir), "preview_collider.obj")
-    cli = os.path.join(cache, "cli_preview_floor", "m.{frame:04d}.obj")
-    subprocess.run(
-        [binary, "particles", "--particles", splash, "--radius", "0.04", "--alpha", "48",
-         "--voxel-size", repr(voxel), "--frames", "10-10", "--collider", written,
-         "--collider-depth", "0.01", "--mesh", cli.replace("{frame:04d}", "####"), "-q"],
-        check=True,
-    )
-    check_against_the_command("the live preview meeting a floor", frames=(10,))
-    s.colliders = None
+# Meeting the floor: the preview writes the Colliders beside the cache as it starts
+# (a jump to 10) and meets them as the command does at its voxel.
+s.colliders, s.colliders_move = colliders, False
+scene.frame_set(10)
+written = os.path.join(bpy.path.abspath(s.cache_dir), "preview_collider.obj")
+cli = os.path.join(cache, "cli_preview_floor", "m.{frame:04d}.obj")
+subprocess.run(
+    [binary, "particles", "--particles", splash, "--radius", "0.04", "--alpha", "48",
+     "--voxel-size", repr(voxel), "--frames", "10-10", "--collider", written,
+     "--collider-depth", "0.01", "--mesh", cli.replace("{frame:04d}", "####"), "-q"],
+    check=True,
+)
+check_against_the_command("the live preview meeting a floor", frames=(10,))
+s.colliders = None
 s.use_preview = False
 cli = whole_cli
 

@@ -102,7 +102,7 @@ class ParticleSkin:
         its sides (the command's --region); collider: a VDB level set or a closed OBJ
         (or a frame pattern of them, # for the number) the surfaces meet, carried on to
         it where the skin comes within collider_gap (3 radii by default) and
-        collider_depth into it (the command's --collider; needs HAS_VDB).
+        collider_depth into it (the command's --collider; a VDB needs HAS_VDB).
         Raises ValueError with the command's message for parameters that cannot make a
         skin."""
 

@@ -553,7 +553,6 @@ def write_box_obj(path, lo, hi):
     path.write_text("\n".join(lines) + "\n")
 
 
-@needs_vdb
 def test_collider_is_the_commands(binary, tmp_path):
     """collider= is the command's --collider: the ball meets the floor under it, with the
     command's meshes byte for byte; bad colliders raise with the argument named."""
@@ -590,7 +589,6 @@ def test_collider_is_the_commands(binary, tmp_path):
         missing.advance(ball(1)[0])
 
 
-@needs_vdb
 def test_a_level_set_skin_meets_a_collider():
     """collider= on LevelSetSkin: a sphere 0.1 over a floor is carried down onto it (its
     gap 0.15), its skin (area, volume) the free sphere's."""

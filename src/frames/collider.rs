@@ -9,7 +9,7 @@ use super::usage::non_negative;
 use super::{DataError, FrameError, UsageError};
 use crate::field::Field;
 use crate::sequence::FramePattern;
-use crate::target::{liquid_origin, meet_collider, ColliderGrid, Target};
+use crate::target::{liquid_origin, meet_collider, ColliderGrid, MeshShape, Target};
 use crate::volume::GridData;
 
 /// The collider's files.
@@ -73,21 +73,21 @@ impl ColliderSpec {
         }
     }
 
-    /// Checked before the run: a kind of file it can read, and OpenVDB to read it.
+    /// Checked before the run: a kind of file it can read (a VDB with OpenVDB).
     pub fn check(&self) -> Result<(), FrameError> {
-        if cfg!(not(feature = "vdb")) {
-            return Err(UsageError::ColliderWithoutVdb.into());
-        }
         let path = self.path(0);
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
-        match ext.as_deref() {
+        match extension(&path).as_deref() {
+            Some("vdb") if cfg!(not(feature = "vdb")) => Err(UsageError::ColliderWithoutVdb.into()),
             Some("vdb") | Some("obj") => Ok(()),
             _ => Err(UsageError::ColliderKind { path }.into()),
         }
     }
+}
+
+fn extension(path: &std::path::Path) -> Option<String> {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
 }
 
 /// The collider of each frame, read once for a static one, and its distance at the
@@ -119,7 +119,9 @@ impl Colliders {
         if !path.is_file() {
             return Err(DataError::MissingCollider { path, frame }.into());
         }
-        let collider = read(&path, dx)?;
+        // A mesh's distance exact past the gap, the depth and a block's half diagonal.
+        let reach = self.gap(dx).max(self.spec.depth) + 8.0 * dx;
+        let collider = read(&path, reach)?;
         self.read = Some((path, dx, collider.clone()));
         Ok(collider)
     }
@@ -134,35 +136,46 @@ impl Colliders {
         let dx = level_set.transform.voxel_size() as f32;
         let collider = self.at(frame, dx)?;
         let origin = liquid_origin(level_set);
+        let gap = self.gap(dx);
         let grid = match self.grid.take() {
-            Some(grid) if grid.is_on(&collider, origin, dx) => grid,
-            _ => ColliderGrid::new(collider, origin, dx),
+            Some(grid) if grid.is_on(&collider, origin, dx, gap) => grid,
+            _ => ColliderGrid::new(collider, origin, dx, gap),
         };
         let grid = self.grid.insert(grid);
-        let gap = self.spec.gap.unwrap_or(DEFAULT_GAP_VOXELS * dx);
         Ok(meet_collider(level_set, grid, gap, self.spec.depth))
+    }
+
+    /// The gap for a skin of voxel `dx`.
+    fn gap(&self, dx: f32) -> f32 {
+        self.spec.gap.unwrap_or(DEFAULT_GAP_VOXELS * dx)
     }
 }
 
-/// A collider file as a signed distance.
-#[cfg(feature = "vdb")]
-fn read(path: &std::path::Path, dx: f32) -> Result<Arc<dyn Target>, FrameError> {
-    use crate::vdb::Grid;
-    let is_obj = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
-    let data = if is_obj {
+/// A collider file as a signed distance: a closed OBJ mesh as it is (exact within
+/// `reach` of its surface, [`MeshShape`]), a VDB level set read with OpenVDB.
+fn read(path: &std::path::Path, reach: f32) -> Result<Arc<dyn Target>, FrameError> {
+    if extension(path).as_deref() == Some("obj") {
         let mesh = crate::io::obj::read(path)?;
-        Grid::mesh_to_level_set(&mesh.positions, &mesh.triangles, f64::from(dx), 3.0)?.to_data()?
-    } else {
-        Grid::read(path, None)?.to_data()?
-    };
+        let shape = MeshShape::new(&mesh.positions, &mesh.triangles, reach).map_err(|source| {
+            DataError::ColliderNotClosed {
+                path: path.to_owned(),
+                source,
+            }
+        })?;
+        return Ok(Arc::new(shape));
+    }
+    read_vdb(path)
+}
+
+#[cfg(feature = "vdb")]
+fn read_vdb(path: &std::path::Path) -> Result<Arc<dyn Target>, FrameError> {
+    let data = crate::vdb::Grid::read(path, None)?.to_data()?;
     let read = super::target_from_grid(path, data, None, super::TargetUnits::Auto)?;
     Ok(Arc::from(read.target))
 }
 
 #[cfg(not(feature = "vdb"))]
-fn read(_: &std::path::Path, _: f32) -> Result<Arc<dyn Target>, FrameError> {
+fn read_vdb(_: &std::path::Path) -> Result<Arc<dyn Target>, FrameError> {
     Err(UsageError::ColliderWithoutVdb.into())
 }
 
@@ -171,22 +184,36 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_collider_is_a_vdb_or_an_obj_read_with_openvdb() {
+    fn a_collider_is_a_vdb_read_with_openvdb_or_a_closed_obj() {
         let spec = |name: &str| ColliderSpec {
             files: ColliderFiles::One(name.into()),
             gap: None,
             depth: 0.0,
         };
         let said = |name: &str| spec(name).check().map_err(|e| e.to_string());
-        if cfg!(feature = "vdb") {
-            assert!(said("tank.vdb").is_ok() && said("Tank.OBJ").is_ok());
-            assert!(said("tank.stl")
+        assert!(said("Tank.OBJ").is_ok());
+        assert!(said("tank.stl")
+            .unwrap_err()
+            .contains("a collider is a VDB level set"));
+        match cfg!(feature = "vdb") {
+            true => assert!(said("tank.vdb").is_ok()),
+            false => assert!(said("tank.vdb")
                 .unwrap_err()
-                .contains("a collider is a VDB level set"));
-        } else {
-            assert!(said("tank.vdb")
-                .unwrap_err()
-                .contains("`collider` needs the `vdb` feature"));
+                .contains("as a VDB needs the `vdb` feature")),
         }
+    }
+
+    #[test]
+    fn an_open_obj_is_one_line() {
+        let dir = std::env::temp_dir().join(format!("activeskin-open-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("lid.obj");
+        std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        let said = read(&path, 0.1).err().unwrap().to_string();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert!(
+            said.contains("lid.obj: the collider is not a closed mesh: 3 of its edges"),
+            "{said}"
+        );
     }
 }

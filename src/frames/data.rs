@@ -105,6 +105,13 @@ pub enum DataError {
         path.display()
     )]
     VelocityNonUniform { path: PathBuf, name: String },
+    /// A collider mesh with no inside.
+    #[error("{}: the collider is {source}", path.display())]
+    ColliderNotClosed {
+        path: PathBuf,
+        #[source]
+        source: crate::target::OpenMesh,
+    },
     /// A collider file missing.
     #[error("{}: the collider is missing (frame {frame})", path.display())]
     MissingCollider { path: PathBuf, frame: i64 },

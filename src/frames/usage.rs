@@ -145,9 +145,9 @@ pub enum UsageError {
     /// A USD stage whose name its layers' names cannot hold.
     #[error("{} '{}': the stage's name cannot hold @ \" # % $ or \\ (its frames' layers are named after it)", Field::Usd, stage.display())]
     UsdName { stage: PathBuf },
-    /// A collider without OpenVDB (it is read, or made from a mesh, with it).
+    /// A VDB collider without OpenVDB (an OBJ mesh needs none).
     #[error(
-        "{} needs the `vdb` feature (activeskin built with OpenVDB)",
+        "{} as a VDB needs the `vdb` feature (activeskin built with OpenVDB); a closed OBJ mesh does not",
         Field::Collider
     )]
     ColliderWithoutVdb,

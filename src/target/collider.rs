@@ -21,64 +21,115 @@ use crate::volume::{GridData, Tile, LEAF_VOXELS, MASK_WORDS};
 /// A collider as the liquid's grid sees it: its signed distance at the grid's nodes, each
 /// sampled once and kept while the collider and the grid stay (a static tank is sampled
 /// where the liquid comes near it, once for the shot), read between them trilinearly.
-/// A node not kept is sampled when asked, with the same value: what a frame meets never
-/// depends on the frames before it.
+/// A block whose centre is farther than the gap and its half diagonal holds one value,
+/// a bound below its nodes' (all past the gap: nothing there meets the collider). A node
+/// not kept is found the same way when asked: what a frame meets never depends on the
+/// frames before it.
 pub struct ColliderGrid {
     target: Arc<dyn Target>,
     origin: Vec3,
     dx: f32,
-    blocks: HashMap<IVec3, Box<[f32; LEAF_VOXELS]>>,
+    gap: f32,
+    blocks: HashMap<IVec3, Kept>,
+}
+
+/// A block's distances to the collider.
+enum Kept {
+    /// Within reach: each node's.
+    Near(Box<[f32; LEAF_VOXELS]>),
+    /// Beyond the gap: a bound below every node's.
+    Far(f32),
 }
 
 impl ColliderGrid {
-    /// `target` on the grid of voxel `dx` whose node (0, 0, 0) is at `origin`.
-    pub fn new(target: Arc<dyn Target>, origin: Vec3, dx: f32) -> Self {
+    /// `target` on the grid of voxel `dx` whose node (0, 0, 0) is at `origin`, met within
+    /// `gap`.
+    pub fn new(target: Arc<dyn Target>, origin: Vec3, dx: f32, gap: f32) -> Self {
         ColliderGrid {
             target,
             origin,
             dx,
+            gap,
             blocks: HashMap::new(),
         }
     }
 
-    /// Whether this is `target` on the grid of `origin` and `dx` (its nodes can be kept).
-    pub fn is_on(&self, target: &Arc<dyn Target>, origin: Vec3, dx: f32) -> bool {
-        Arc::ptr_eq(&self.target, target) && self.origin == origin && self.dx == dx
+    /// Whether this is `target` on the grid of `origin` and `dx` met within `gap` (its
+    /// nodes can be kept).
+    pub fn is_on(&self, target: &Arc<dyn Target>, origin: Vec3, dx: f32, gap: f32) -> bool {
+        Arc::ptr_eq(&self.target, target)
+            && self.origin == origin
+            && self.dx == dx
+            && self.gap == gap
     }
 
     fn world(&self, ijk: IVec3) -> Vec3 {
         self.origin + ijk.as_vec3() * self.dx
     }
 
-    /// Samples the nodes of `blocks` not yet kept.
+    /// Block `b`'s distances.
+    fn sample_block(&self, b: IVec3) -> Kept {
+        let half_diagonal = 0.5 * 3f32.sqrt() * 7.0 * self.dx;
+        let centre = self
+            .target
+            .distance(self.world(b * 8) + Vec3::splat(3.5 * self.dx));
+        if centre > self.gap + half_diagonal + self.dx {
+            return Kept::Far(centre - half_diagonal);
+        }
+        let mut values = Box::new([0.0; LEAF_VOXELS]);
+        for (o, v) in values.iter_mut().enumerate() {
+            *v = self.target.distance(self.world(b * 8 + offset_coords(o)));
+        }
+        Kept::Near(values)
+    }
+
+    /// Samples the blocks of `blocks` not yet kept, and the blocks around those within
+    /// reach the walk out to the gap may read.
     fn keep(&mut self, blocks: &[IVec3]) {
+        self.keep_only(blocks);
+        let ring = (self.gap / (8.0 * self.dx)).ceil() as i32;
+        let mut around: Vec<IVec3> = blocks
+            .iter()
+            .filter(|b| matches!(self.blocks.get(*b), Some(Kept::Near(_))))
+            .flat_map(|&b| {
+                (-ring..=ring).flat_map(move |x| {
+                    (-ring..=ring)
+                        .flat_map(move |y| (-ring..=ring).map(move |z| b + IVec3::new(x, y, z)))
+                })
+            })
+            .filter(|b| !self.blocks.contains_key(b))
+            .collect();
+        around.sort_unstable_by_key(|b| b.to_array());
+        around.dedup();
+        self.keep_only(&around);
+    }
+
+    fn keep_only(&mut self, blocks: &[IVec3]) {
         let missing: Vec<IVec3> = blocks
             .iter()
             .filter(|b| !self.blocks.contains_key(*b))
             .copied()
             .collect();
         let this = &*self;
-        let sampled: Vec<(IVec3, Box<[f32; LEAF_VOXELS]>)> = missing
+        let sampled: Vec<(IVec3, Kept)> = missing
             .into_par_iter()
-            .map(|b| {
-                let mut values = Box::new([0.0; LEAF_VOXELS]);
-                for (o, v) in values.iter_mut().enumerate() {
-                    *v = this.target.distance(this.world(b * 8 + offset_coords(o)));
-                }
-                (b, values)
-            })
+            .map(|b| (b, this.sample_block(b)))
             .collect();
         self.blocks.extend(sampled);
     }
 
-    /// The distance at node `ijk`.
+    /// The distance at node `ijk` (a far block's bound).
     fn node(&self, ijk: IVec3) -> f32 {
-        match self.blocks.get(&(ijk >> 3)) {
-            Some(values) => {
+        let at = |kept: &Kept| match kept {
+            Kept::Near(values) => {
                 let l = ijk & 7;
                 values[((l.x << 6) | (l.y << 3) | l.z) as usize]
             }
-            None => self.target.distance(self.world(ijk)),
+            Kept::Far(bound) => *bound,
+        };
+        match self.blocks.get(&(ijk >> 3)) {
+            Some(kept) => at(kept),
+            None => at(&self.sample_block(ijk >> 3)),
         }
     }
 
@@ -89,9 +140,20 @@ impl ColliderGrid {
         let base = q.floor();
         let (t, b) = (q - base, base.as_ivec3());
         let mut c = [0.0f32; 8];
-        for (i, v) in c.iter_mut().enumerate() {
-            let i = i as i32;
-            *v = self.node(b + IVec3::new(i >> 2, (i >> 1) & 1, i & 1));
+        let corner = |i: usize| IVec3::new(i as i32 >> 2, (i as i32 >> 1) & 1, i as i32 & 1);
+        match self.blocks.get(&(b >> 3)) {
+            // The cell within one kept block: its eight nodes from one lookup.
+            Some(Kept::Near(values)) if (b & 7).cmplt(IVec3::splat(7)).all() => {
+                for (i, v) in c.iter_mut().enumerate() {
+                    let l = (b & 7) + corner(i);
+                    *v = values[((l.x << 6) | (l.y << 3) | l.z) as usize];
+                }
+            }
+            _ => {
+                for (i, v) in c.iter_mut().enumerate() {
+                    *v = self.node(b + corner(i));
+                }
+            }
         }
         let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
         // Along z, then y, then x; the gradient from the same corners.
@@ -170,12 +232,15 @@ pub fn meet_collider(
         })
     };
     let candidates: Vec<IVec3> = near.into_par_iter().filter(|&b| liquid_near(b)).collect();
+    debug_assert!(collider.gap == gap);
     collider.keep(&candidates);
     let collider = &*collider;
     let changed: Vec<(IVec3, Option<[f32; LEAF_VOXELS]>, bool)> = candidates
         .par_iter()
         .filter_map(|&b| {
-            let kept = &collider.blocks[&b];
+            let Kept::Near(kept) = &collider.blocks[&b] else {
+                return None; // beyond the collider's reach: as it is
+            };
             if kept.iter().all(|&c| c >= gap) {
                 return None; // beyond the collider's reach: as it is
             }
@@ -402,10 +467,10 @@ mod tests {
         let at = |data: &GridData, p: Vec3| LevelSetTarget::new(data).distance(p);
         let wall: Arc<dyn Target> = Arc::new(Wall);
         // Kept across "frames": a slab farther off first, then each depth.
-        let mut kept = ColliderGrid::new(wall.clone(), liquid_origin(&liquid), dx);
+        let mut kept = ColliderGrid::new(wall.clone(), liquid_origin(&liquid), dx, 0.05);
         assert!(meet_collider(&slab(0.045, dx), &mut kept, 0.05, 0.0).is_some());
         for depth in [0.0, 0.01] {
-            let mut fresh = ColliderGrid::new(wall.clone(), liquid_origin(&liquid), dx);
+            let mut fresh = ColliderGrid::new(wall.clone(), liquid_origin(&liquid), dx, 0.05);
             let met = meet_collider(&liquid, &mut fresh, 0.05, depth).expect("the slab is near");
             // The nodes kept from the frames before change nothing, bit for bit.
             let again = meet_collider(&liquid, &mut kept, 0.05, depth).unwrap();
@@ -438,7 +503,7 @@ mod tests {
         // A film thinner than the gap lying on the wall (the liquid carried from the gap
         // is air): it stays, and meets the wall.
         let thin = film(0.01, 0.03, dx);
-        let mut wall_grid = ColliderGrid::new(wall.clone(), liquid_origin(&thin), dx);
+        let mut wall_grid = ColliderGrid::new(wall.clone(), liquid_origin(&thin), dx, 0.05);
         let met = meet_collider(&thin, &mut wall_grid, 0.05, 0.0).expect("the film is near");
         for x in [0.002, 0.01, 0.02, 0.028] {
             assert!(
@@ -449,7 +514,7 @@ mod tests {
         assert!(at(&met, Vec3::new(0.035, 0.0, 0.05)) > 0.0);
         // Liquid farther than the gap from the wall: nothing changes.
         let far = slab(0.1, dx);
-        let mut wall = ColliderGrid::new(Arc::new(Wall), liquid_origin(&far), dx);
+        let mut wall = ColliderGrid::new(Arc::new(Wall), liquid_origin(&far), dx, 0.05);
         assert!(meet_collider(&far, &mut wall, 0.05, 0.0).is_none());
     }
 }
