@@ -60,6 +60,12 @@ pub trait Target: Sync + Send {
     fn parts(&self) -> Vec<Aabb> {
         vec![self.bounds()]
     }
+    /// Boxes that together hold the target's surface: by default its parts. A collider
+    /// is met only near its surface ([`meet_collider`]); a closed mesh lists the cells
+    /// its triangles pass through, not its whole inside.
+    fn surface_parts(&self) -> Vec<Aabb> {
+        self.parts()
+    }
     /// The volume it encloses, world units, where that is cheap to know (a level set's
     /// voxels): a frame carried by a velocity follows its change ([`crate::skin::Skin::carry_in_flow`]).
     fn volume(&self) -> Option<f64> {
@@ -86,6 +92,9 @@ impl<T: Target + ?Sized> Target for &T {
     fn parts(&self) -> Vec<Aabb> {
         (**self).parts()
     }
+    fn surface_parts(&self) -> Vec<Aabb> {
+        (**self).surface_parts()
+    }
     fn volume(&self) -> Option<f64> {
         (**self).volume()
     }
@@ -110,6 +119,9 @@ impl<T: Target + ?Sized + Send> Target for std::sync::Arc<T> {
     fn parts(&self) -> Vec<Aabb> {
         (**self).parts()
     }
+    fn surface_parts(&self) -> Vec<Aabb> {
+        (**self).surface_parts()
+    }
     fn volume(&self) -> Option<f64> {
         (**self).volume()
     }
@@ -133,6 +145,9 @@ impl<T: Target + ?Sized> Target for Box<T> {
     }
     fn parts(&self) -> Vec<Aabb> {
         (**self).parts()
+    }
+    fn surface_parts(&self) -> Vec<Aabb> {
+        (**self).surface_parts()
     }
     fn volume(&self) -> Option<f64> {
         (**self).volume()

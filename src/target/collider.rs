@@ -201,13 +201,13 @@ pub fn meet_collider(
         .map(|(i, o)| (IVec3::from(*o) / 8, i))
         .collect();
     let tiles: HashSet<IVec3> = leaf_sized_tiles(liquid);
-    // The blocks within the gap of the collider's own pieces (its leaves and inside
-    // tiles: beyond them it is far) that have liquid within reach.
+    // The blocks within the gap of the collider's surface (a level set's leaves and
+    // inside tiles, a mesh's cells: beyond them it is far) that have liquid within reach.
     let reach = ((gap + depth) / (8.0 * dx)).ceil() as i32 + 1;
     let block_of = |p: Vec3| ((p - origin) / (8.0 * dx)).floor().as_ivec3();
     let mut near: Vec<IVec3> = collider
         .target
-        .parts()
+        .surface_parts()
         .iter()
         .flat_map(|part| {
             let (lo, hi) = (
@@ -262,9 +262,12 @@ pub fn meet_collider(
                         // there (a film thinner than the gap lying on the collider
                         // stays), cut `depth` inside the collider.
                         let cut = -(c + depth);
-                        let liquid = match cut > 0.0 {
-                            true => -background, // past the depth: only the cut counts
-                            false => stored(o).min(carried(p, c, &sample, collider, gap)),
+                        let liquid = match (cut > 0.0, stored(o)) {
+                            (true, _) => -background, // past the depth: only the cut counts
+                            (false, own) if own <= -background => own,
+                            (false, own) => {
+                                own.min(carried(p, c, &sample, collider, (gap, background)))
+                            }
                         };
                         liquid.max(cut).clamp(-background, background)
                     }
@@ -300,7 +303,13 @@ pub fn liquid_origin(liquid: &GridData) -> Vec3 {
 /// liquid's level set along the way from `p` out along the collider's normal to `gap` —
 /// whatever liquid lies within the gap over `p`, a body's face or a film thinner than the
 /// gap, reaches down to it.
-fn carried(p: Vec3, c: f32, liquid: &LevelSetTarget, collider: &ColliderGrid, gap: f32) -> f32 {
+fn carried(
+    p: Vec3,
+    c: f32,
+    liquid: &LevelSetTarget,
+    collider: &ColliderGrid,
+    (gap, background): (f32, f32),
+) -> f32 {
     // Out along the collider's normal to `gap`, again from there while another face of
     // it (a floor under a wall) is still nearer: into a corner, the liquid is carried
     // from where it is clear of both.
@@ -316,6 +325,9 @@ fn carried(p: Vec3, c: f32, liquid: &LevelSetTarget, collider: &ColliderGrid, ga
         let n = (leg.length() / step).ceil().max(1.0);
         for k in 1..=n as u32 {
             least = least.min(liquid.trilinear(q + leg * (k as f32 / n)));
+        }
+        if least <= -background {
+            break; // as deep as a level set says
         }
         q += leg;
         (at, normal) = collider.sample(q);

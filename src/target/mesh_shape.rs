@@ -187,6 +187,18 @@ impl Target for MeshShape {
     fn bounds(&self) -> Aabb {
         self.bounds
     }
+    /// The cells its triangles pass through.
+    fn surface_parts(&self) -> Vec<Aabb> {
+        let mut cells: Vec<IVec3> = self.cells.keys().copied().collect();
+        cells.sort_unstable_by_key(|k| k.to_array());
+        cells
+            .into_iter()
+            .map(|k| Aabb {
+                min: k.as_vec3() * self.cell,
+                max: (k + 1).as_vec3() * self.cell,
+            })
+            .collect()
+    }
 }
 
 #[cfg(test)]

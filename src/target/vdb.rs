@@ -209,9 +209,13 @@ impl Sampler {
         let base = q.floor();
         let t = q - base;
         let b = base.as_ivec3();
-        // The cell within one leaf (7 in 8 on each axis): its corners from one lookup.
+        // The cell within one leaf (7 in 8 on each axis): its corners from one lookup; in
+        // a leaf's place without one, a tile's value or the background, the same at all.
         let leaf = match (b & 7).cmplt(IVec3::splat(7)).all() {
-            true => self.leaves.get(&(b & !7)).copied(),
+            true => match self.leaves.get(&(b & !7)) {
+                Some(&leaf) => Some(leaf),
+                None => return self.voxel(b),
+            },
             false => None,
         };
         let mut acc = 0.0;
