@@ -4,6 +4,7 @@
 mod formats;
 mod outputs;
 mod particles;
+mod pool;
 mod sph;
 
 use std::time::Instant;
@@ -62,7 +63,8 @@ pub struct BenchArgs {
     /// when it cannot be) and a smoothly twisting ellipsoid of particles (whose true
     /// surface is smooth in time), time, volume, particles outside, temporal noise and flicker,
     /// and the look (bumps, pieces, single-layer sheets) beside splashsurf smoothed as its
-    /// README recommends; 100 k and 1 M particles at rest, ms per frame; distance to the true surface and
+    /// README recommends; a settled pool's facet tilt and top; 100 k and 1 M particles at
+    /// rest, ms per frame; distance to the true surface and
     /// flicker on a fluid at rest. splashsurf is installed into the cache folder with
     /// cargo when not found.
     #[arg(long)]

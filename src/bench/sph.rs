@@ -32,17 +32,17 @@ use serde_json::json;
 use super::timed;
 
 /// The shots' file names, frame numbers unpadded as SPlisHSPlasH writes them.
-const STEM: &str = "dam_break_";
+pub(super) const STEM: &str = "dam_break_";
 
 /// A particle shot to race on: `frames` files `{STEM}{f}.ply` in `dir` at `fps`,
 /// particles of radius `r`, named `name` in the lines and `key` in the JSON report.
-struct Shot {
-    name: String,
-    key: String,
-    dir: PathBuf,
-    frames: usize,
-    fps: f32,
-    r: f32,
+pub(super) struct Shot {
+    pub name: String,
+    pub key: String,
+    pub dir: PathBuf,
+    pub frames: usize,
+    pub fps: f32,
+    pub r: f32,
 }
 
 /// The dam break's baked cache at `fps` (`frames` frames: 36 at 24 fps, 1.46 s), baked
@@ -307,6 +307,7 @@ pub fn race(
         twists.push(race_on(&shot, root, splashsurf, extra, lines, report)?);
         std::fs::remove_dir_all(&shot.dir)?;
     }
+    super::pool::race(root, splashsurf, lines, report)?;
     let [slow, fast] = &twists[..] else {
         return Ok(());
     };
@@ -342,7 +343,7 @@ pub fn race(
 
 /// splashsurf's surface post-processing as its README recommends it for a smooth
 /// surface: the look artists compare with.
-const SPLASHSURF_SMOOTHING: [&str; 5] = [
+pub(super) const SPLASHSURF_SMOOTHING: [&str; 5] = [
     "--mesh-cleanup=on",
     "--mesh-smoothing-weights=on",
     "--mesh-smoothing-iters=25",
@@ -506,6 +507,19 @@ fn rates(
     );
 }
 
+/// A fixed jitter in ±`amount` of lattice point `ijk`'s coordinate `c`, from a hash of
+/// both: the same particles on every run.
+pub(super) fn lattice_jitter([i, j, k]: [i32; 3], c: u32, amount: f32) -> f32 {
+    let mut h = (i as u32).wrapping_mul(73_856_093)
+        ^ (j as u32).wrapping_mul(19_349_663)
+        ^ (k as u32).wrapping_mul(83_492_791)
+        ^ c.wrapping_mul(2_654_435_761);
+    h ^= h >> 13;
+    h = h.wrapping_mul(0x5bd1_e995);
+    h ^= h >> 15;
+    (h as f32 / u32::MAX as f32 - 0.5) * 2.0 * amount
+}
+
 /// An ellipsoid of particles (semi-axes 0.2, 0.14, 0.1 m; a jittered lattice of spacing
 /// 2r, r = 0.005) gliding 8 voxels a 24th of a second while twisting about its vertical
 /// axis (each height turning at its own rate, 1 + 15 z rad/s: a smooth motion, not a
@@ -517,17 +531,8 @@ fn twist(dir: &Path, fps: f32) -> anyhow::Result<Shot> {
     std::fs::create_dir_all(dir)?;
     let axes = Vec3::new(0.2, 0.14, 0.1);
     let n = (axes.x / (2.0 * r)).round() as i32;
-    // A fixed jitter of ±0.3 r, from a hash of the lattice index.
-    let jitter = |i: i32, j: i32, k: i32, c: u32| {
-        let mut h = (i as u32).wrapping_mul(73_856_093)
-            ^ (j as u32).wrapping_mul(19_349_663)
-            ^ (k as u32).wrapping_mul(83_492_791)
-            ^ c.wrapping_mul(2_654_435_761);
-        h ^= h >> 13;
-        h = h.wrapping_mul(0x5bd1_e995);
-        h ^= h >> 15;
-        (h as f32 / u32::MAX as f32 - 0.5) * 0.6 * r
-    };
+    // A fixed jitter of ±0.3 r.
+    let jitter = |i, j, k, c| lattice_jitter([i, j, k], c, 0.3 * r);
     let mut start = Vec::new();
     for i in -n..=n {
         for j in -n..=n {
@@ -583,7 +588,7 @@ fn twist(dir: &Path, fps: f32) -> anyhow::Result<Shot> {
 /// splashsurf is, meshes only; then again with --stats (`ours.jsonl`) for the sub-steps
 /// and each frame's time (its mesh checks cost a quarter of a frame), the same meshes.
 /// The first run's wall seconds.
-fn run_ours(shot: &Shot, dir: &Path, extra: &str) -> anyhow::Result<f64> {
+pub(super) fn run_ours(shot: &Shot, dir: &Path, extra: &str) -> anyhow::Result<f64> {
     let input = shot.dir.join(format!("{STEM}$F.ply"));
     let radius = shot.r.to_string();
     let ours = |stats: bool| {
@@ -612,7 +617,7 @@ fn run_ours(shot: &Shot, dir: &Path, extra: &str) -> anyhow::Result<f64> {
 /// splashsurf on `shot` (raw, or with `extra`, the post-processing its README recommends
 /// for a smooth surface), meshes `{prefix}_{frame}.obj` into `dir`: its wall seconds,
 /// `None` without it.
-fn run_splashsurf(
+pub(super) fn run_splashsurf(
     shot: &Shot,
     dir: &Path,
     splashsurf: Option<&Path>,

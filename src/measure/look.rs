@@ -115,6 +115,25 @@ pub fn bumps_where(mesh: &Mesh, radius: f32, keep: impl Fn(Vec3) -> bool + Sync)
     sum / count.max(1) as f64
 }
 
+/// How much the facets of a flat surface tilt, in degrees: the area-weighted mean angle
+/// between `up` and the normals of the triangles of `mesh` facing within 45° of it whose
+/// centroids pass `keep` (the middle of a pool's top, say). A still liquid's top is a
+/// plane: what tilts there is noise the mesher or the particles left.
+pub fn facet_tilt(mesh: &Mesh, up: Vec3, keep: impl Fn(Vec3) -> bool) -> f64 {
+    let (mut sum, mut area) = (0.0f64, 0.0f64);
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+        let n = (b - a).cross(c - a);
+        let twice = f64::from(n.length());
+        let cos = f64::from(n.dot(up)) / twice.max(f64::MIN_POSITIVE);
+        if twice > 0.0 && cos > std::f64::consts::FRAC_1_SQRT_2 && keep((a + b + c) / 3.0) {
+            sum += twice * cos.min(1.0).acos().to_degrees();
+            area += twice;
+        }
+    }
+    sum / area.max(f64::MIN_POSITIVE)
+}
+
 /// The particles of `cloud` (radius `radius`, 2r apart) that lie in a sheet one particle
 /// thick: at least four neighbours within 3r, all within a tenth of the spacing of
 /// a plane through the particle, and none stacked on it (within 3r, every neighbour's
@@ -191,6 +210,41 @@ mod tests {
         }
         let r = bumps(&rough, dx);
         assert!(r > 3.0 * b, "{r} against {b}");
+    }
+
+    #[test]
+    fn a_plane_tilts_as_it_is_turned_and_its_kept_part_only_counts() {
+        // A 10 × 10 grid of squares in the xz plane, turned 3° about z.
+        let mut mesh = Mesh::default();
+        let turn = glam::Quat::from_rotation_z(3f32.to_radians());
+        for i in 0..11 {
+            for k in 0..11 {
+                mesh.positions
+                    .push(turn * Vec3::new(i as f32, 0.0, k as f32));
+            }
+        }
+        for i in 0..10u32 {
+            for k in 0..10u32 {
+                let v = |a: u32, b: u32| a * 11 + b;
+                mesh.triangles.push([v(i, k), v(i, k + 1), v(i + 1, k)]);
+                mesh.triangles
+                    .push([v(i + 1, k), v(i, k + 1), v(i + 1, k + 1)]);
+            }
+        }
+        let tilt = facet_tilt(&mesh, Vec3::Y, |_| true);
+        assert!((tilt - 3.0).abs() < 1e-3, "{tilt}");
+        // A part turned further (its two halves' triangles lifted at one end) counts
+        // only when kept.
+        let first_row = |c: Vec3| c.z < 1.0;
+        for p in mesh.positions.iter_mut().filter(|p| p.z < 0.5) {
+            p.y += 0.5;
+        }
+        let lifted = facet_tilt(&mesh, Vec3::Y, first_row);
+        let rest = facet_tilt(&mesh, Vec3::Y, |c| c.z > 1.0);
+        assert!(lifted > 20.0, "{lifted}");
+        assert!((rest - 3.0).abs() < 1e-3, "{rest}");
+        // Faces turned away from up (a wall) are not a top's.
+        assert_eq!(facet_tilt(&mesh, Vec3::X, |_| true), 0.0);
     }
 
     #[test]
