@@ -5,6 +5,7 @@ mod formats;
 mod outputs;
 mod particles;
 mod pool;
+mod scale;
 mod sph;
 
 use std::time::Instant;
@@ -88,7 +89,7 @@ pub struct BenchArgs {
     #[arg(long, requires = "particles")]
     frame_rates: bool,
     /// The splashsurf binary to race (default: on the PATH, or in ~/.cache/activeskin).
-    #[arg(long, requires = "particles")]
+    #[arg(long)]
     splashsurf: Option<std::path::PathBuf>,
     /// Only the time to read a 1 M-particle frame in every particle format (written once
     /// by data/formats/write_frames.py, pip vtk and numpy, into ~/.cache/activeskin/formats
@@ -100,6 +101,19 @@ pub struct BenchArgs {
     /// against the OBJ writer.
     #[arg(long, conflicts_with_all = ["particles", "formats"])]
     outputs: bool,
+    /// Only the scale race: moving liquids of --scale-millions particles generated with
+    /// velocities and ids, ours against splashsurf on its best input (float x y z),
+    /// whole-process time and peak memory, our frames' times and band nodes.
+    #[arg(long, conflicts_with_all = ["particles", "formats", "outputs"])]
+    scale: bool,
+    /// The scale race's sizes, millions of particles.
+    #[arg(
+        long,
+        requires = "scale",
+        value_delimiter = ',',
+        default_value = "1,4,10"
+    )]
+    scale_millions: Vec<f64>,
     /// Seconds each side of the morph-to-accuracy race may run before it is called.
     #[arg(long, default_value_t = 30.0)]
     race_cap: f64,
@@ -177,6 +191,13 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         formats::run(&mut lines, &mut report)?;
     } else if args.outputs {
         outputs::run(&mut lines, &mut report)?;
+    } else if args.scale {
+        scale::run(
+            args.splashsurf.as_deref(),
+            &args.scale_millions,
+            &mut lines,
+            &mut report,
+        )?;
     } else if !args.particles_only {
         solver_races(args, &mut lines, &mut report)?;
     }

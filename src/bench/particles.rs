@@ -39,7 +39,7 @@ pub(super) fn lattice_ball(n: usize, r: f32) -> (Vec<Vec3>, f32) {
 }
 
 /// splashsurf: `given`, on the PATH, in activeskin's cache, or installed there with cargo.
-fn splashsurf(given: Option<&Path>) -> Result<PathBuf, String> {
+pub(super) fn splashsurf(given: Option<&Path>) -> Result<PathBuf, String> {
     if let Some(path) = given {
         return Ok(path.to_path_buf());
     }
