@@ -306,6 +306,9 @@ pub fn run<'t>(
             }
             _ => 0,
         };
+        // The frame before's input is of no more use: dropped before the next frame is
+        // read beside this one (three frames' densities would be held at once).
+        previous = None;
         let this = ThisFrame {
             frame,
             first: frame == first,

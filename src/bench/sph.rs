@@ -37,11 +37,17 @@ pub(super) const STEM: &str = "dam_break_";
 /// A particle shot to race on: `frames` files `{STEM}{f}.ply` in `dir` at `fps`,
 /// particles of radius `r`, named `name` in the lines and `key` in the JSON report.
 pub(super) struct Shot {
+    /// Its name in the lines.
     pub name: String,
+    /// Its key in the JSON report.
     pub key: String,
+    /// The folder of its frames.
     pub dir: PathBuf,
+    /// How many frames, from 1.
     pub frames: usize,
+    /// Frames a second.
     pub fps: f32,
+    /// The particles' radius.
     pub r: f32,
 }
 

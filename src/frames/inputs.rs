@@ -390,21 +390,24 @@ impl ParticleInput {
         };
         let spray_points = density.spray_positions();
         let budget = crate::budget::bytes();
-        let grid = DensityGrid::rasterize_within(&density, self.dx, budget).map_err(|needed| {
-            FrameError::OverBudget {
-                path: path.into(),
-                needed,
-                voxel: self.dx,
-                kernel: 2.0 * support * self.radius,
-                budget,
-            }
-        })?;
+        let over = |needed| FrameError::OverBudget {
+            path: path.into(),
+            needed,
+            voxel: self.dx,
+            kernel: 2.0 * support * self.radius,
+            budget,
+        };
+        let grid = DensityGrid::rasterize_within(&density, self.dx, budget, false).map_err(over)?;
         // The fog volume (OpenVDB only: check() refuses --density-out without it).
         #[cfg(not(feature = "vdb"))]
         let _ = frame;
         #[cfg(feature = "vdb")]
         if let Some(out) = &self.density_out {
-            let fog = Grid::from_data(&grid.to_fog_volume())?;
+            // Every node of it, summed again apart from the skin's compacted grid (the
+            // skin never depends on what is written).
+            let whole =
+                DensityGrid::rasterize_within(&density, self.dx, budget, true).map_err(over)?;
+            let fog = Grid::from_data(&whole.to_fog_volume())?;
             let meta = vdb::frame_metadata(frame);
             vdb::write_grids(&out.path(frame), &[(&fog, WriteOptions::default())], &meta)?;
         }
