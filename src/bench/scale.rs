@@ -17,7 +17,7 @@ use anyhow::Context;
 use glam::Vec3;
 use serde_json::json;
 
-use super::sph::lattice_jitter;
+use super::sph::{column, lattice_jitter, read_stats};
 
 /// The frames of each shot (the first a skin's start, the others in motion), at 24 fps.
 const FRAMES: usize = 3;
@@ -169,18 +169,8 @@ fn race(
     };
     let (ours_s, ours_peak) = ours(false)?;
     ours(true)?;
-    let stats: Vec<serde_json::Value> = std::fs::read_to_string(dir.join("ours.jsonl"))?
-        .lines()
-        .filter_map(|l| serde_json::from_str(l).ok())
-        .collect();
-    let frame_ms: Vec<f64> = stats
-        .iter()
-        .filter_map(|v| v["milliseconds"].as_f64())
-        .collect();
-    let band: Vec<f64> = stats
-        .iter()
-        .filter_map(|v| v["band_nodes"].as_f64())
-        .collect();
+    let stats = read_stats(&dir.join("ours.jsonl"))?;
+    let (frame_ms, band) = (column(&stats, "milliseconds"), column(&stats, "band_nodes"));
     let most_band = band.iter().copied().fold(0.0, f64::max);
     let per_node = (ours_peak - PARTICLE_BYTES * count as f64) / most_band.max(1.0);
     let moving = frame_ms[1..].iter().sum::<f64>() / (frame_ms.len() - 1).max(1) as f64;

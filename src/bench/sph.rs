@@ -648,6 +648,19 @@ pub(super) fn run_splashsurf(
     )?))
 }
 
+/// The frames' lines of our run's `--stats` file.
+pub(super) fn read_stats(path: &Path) -> anyhow::Result<Vec<serde_json::Value>> {
+    Ok(std::fs::read_to_string(path)?
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect())
+}
+
+/// `key`'s number on each frame's line of `stats` that has one.
+pub(super) fn column(stats: &[serde_json::Value], key: &str) -> Vec<f64> {
+    stats.iter().filter_map(|v| v[key].as_f64()).collect()
+}
+
 /// Lag: each frame's skin against that frame's own density iso-surface, mean voxels.
 fn lag(shot: &Shot, meshes: &[Mesh]) -> anyhow::Result<Vec<f64>> {
     let (cache, r) = (&shot.dir, shot.r);
@@ -774,19 +787,13 @@ fn race_on(
         lines,
         report,
     );
-    let stats: Vec<serde_json::Value> = std::fs::read_to_string(dir.join("ours.jsonl"))?
-        .lines()
-        .filter_map(|l| serde_json::from_str(l).ok())
-        .collect();
-    let substeps: Vec<u64> = stats
+    let stats = read_stats(&dir.join("ours.jsonl"))?;
+    let substeps: Vec<u64> = column(&stats, "substeps")
         .iter()
-        .filter_map(|v| v["substeps"].as_u64())
+        .map(|&s| s as u64)
         .collect();
     // Each frame's own time, as the run measured it (reading, solving, writing).
-    let frame_ms: Vec<f64> = stats
-        .iter()
-        .filter_map(|v| v["milliseconds"].as_f64())
-        .collect();
+    let frame_ms = column(&stats, "milliseconds");
 
     let per_frame = |s: f64| s / frames as f64 * 1e3;
     lines.push(summary_line(

@@ -1044,14 +1044,20 @@ mod tests {
         (points, velocities)
     }
 
+    /// [`ball`]'s particles as a density of smoothing length `l` (support 2·l·r) with
+    /// their velocities, normalized as the particle runs have it.
+    fn ball_density(r: f32, l: f32, radius: f32) -> Density {
+        let (points, velocities) = ball(r, radius);
+        Density::new(points, 2.0 * l * r, fluid_iso(l))
+            .normalized(l)
+            .velocity_within(super::super::VELOCITY_SUPPORT_RADII, l)
+            .with_velocities(&velocities)
+    }
+
     #[test]
     fn block_departures_read_the_nodes_as_departure_interpolates_them() {
         let (r, l) = (0.05f32, 2.0f32);
-        let (points, velocities) = ball(r, 0.6);
-        let exact = Density::new(points, 2.0 * l * r, fluid_iso(l))
-            .normalized(l)
-            .velocity_within(super::super::VELOCITY_SUPPORT_RADII, l)
-            .with_velocities(&velocities);
+        let exact = ball_density(r, l, 0.6);
         let grid = DensityGrid::rasterize(&exact, r);
         let (mut fast, mut slow) = (Vec::new(), Vec::new());
         let mut compared = 0;
@@ -1175,11 +1181,7 @@ mod tests {
     fn a_deep_liquids_bulk_is_compacted_and_reads_the_same_near_its_surface() {
         let (r, l) = (0.05f32, 2.0f32);
         let (dx, h) = (r, 2.0 * l * r);
-        let (points, velocities) = ball(r, 2.6);
-        let density = Density::new(points, h, fluid_iso(l))
-            .normalized(l)
-            .velocity_within(super::super::VELOCITY_SUPPORT_RADII, l)
-            .with_velocities(&velocities);
+        let density = ball_density(r, l, 2.6);
         let whole = DensityGrid::rasterize(&density, dx);
         let compact = DensityGrid::rasterize_within(&density, dx, u64::MAX, false).unwrap();
         assert!(whole.blocks.iter().all(|b| b.field.is_some()));
@@ -1229,12 +1231,8 @@ mod tests {
     #[test]
     fn rasterized_density_matches_the_exact_sum() {
         let (r, l) = (0.05f32, 2.0f32);
-        let (dx, h) = (r, 2.0 * l * r);
-        let (points, velocities) = ball(r, 0.6);
-        let exact = Density::new(points, h, fluid_iso(l))
-            .normalized(l)
-            .velocity_within(super::super::VELOCITY_SUPPORT_RADII, l)
-            .with_velocities(&velocities);
+        let dx = r;
+        let exact = ball_density(r, l, 0.6);
         let grid = DensityGrid::rasterize(&exact, dx);
         // Exact at the nodes, and between them within a small fraction of a voxel near
         // the surface.
