@@ -177,7 +177,10 @@ fn level_set_drops_a_kilometre_apart() {
 }
 
 /// The run `far` (drops far apart) costs what `near` (the same drops close by) does: the
-/// same band nodes on every frame, at most twice the peak memory.
+/// same band nodes on every frame within a thousandth, at most twice the peak memory.
+/// (Not exactly: a particle a kilometre out is a float rounded to 0.003 voxel, and the
+/// smoothing's broad moves, averaged over the skin, follow such differences by a few
+/// nodes in ten thousand.)
 fn assert_far_costs_as_near(what: &str, dir: &Path, far: &[String], near: &[String]) {
     let cost = |args: &[String], name: &str| {
         let stats = dir.join(format!("{name}.cost.jsonl"));
@@ -197,6 +200,10 @@ fn assert_far_costs_as_near(what: &str, dir: &Path, far: &[String], near: &[Stri
         far_peak / 1_000_000,
         near_peak / 1_000_000
     );
-    assert_eq!(far_nodes, near_nodes, "{what}");
+    assert_eq!(far_nodes.len(), near_nodes.len(), "{what}");
+    for (far, near) in far_nodes.iter().zip(&near_nodes) {
+        let off = (*far as f64 - *near as f64).abs() / *near as f64;
+        assert!(off <= 1e-3, "{what}: {far_nodes:?} against {near_nodes:?}");
+    }
     assert!(far_peak <= 2 * near_peak, "{what}: {far_peak} {near_peak}");
 }
