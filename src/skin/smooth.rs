@@ -447,15 +447,14 @@ fn give_back_broad_moves<P: Potential>(
             s
         })
         .collect();
-    let mut next = vec![[[0.0f32; 3]; BLOCK_NODES]; sums.len()];
     // Boxes of 2·reach + 1 nodes along each axis, a variance of reach·(reach + 1)/3 each.
     let variance = BROAD * time;
     let reach = ((((1.0 + 4.0 * variance).sqrt() - 1.0) / 2.0).round() as i32).clamp(1, 8);
     let boxes = ((3.0 * variance / (reach * (reach + 1)) as f32).round() as usize).max(1);
     for axis in [0usize, 1, 2] {
+        let runs = runs_along(grid, axis);
         for _ in 0..boxes {
-            box_along(grid, (&sums, &mut next), axis, reach);
-            std::mem::swap(&mut sums, &mut next);
+            box_along(grid, &mut sums, (&runs, axis), reach);
         }
     }
     grid.blocks_mut()
@@ -480,65 +479,102 @@ fn give_back_broad_moves<P: Potential>(
 /// the flow moved, their bulk share.
 type Sums = [[f32; 3]; BLOCK_NODES];
 
-/// One box filter of 2·`reach` + 1 nodes along `axis` (reach ≤ 8: the block and its two
-/// neighbours along it), `from` into `to`, per block of `grid`.
+/// The stored blocks in runs along `axis`: each run's blocks in order, one after the
+/// other along the axis (a block missing ends a run: a box of at most 17 nodes reaches
+/// no further than the block next to it).
+fn runs_along<P: Potential>(grid: &SparseGrid<P>, axis: usize) -> Vec<Vec<usize>> {
+    let mut keyed: Vec<([i32; 3], usize)> = grid
+        .blocks()
+        .iter()
+        .enumerate()
+        .map(|(i, block)| {
+            let c = block.coord.to_array();
+            let (u, v) = ([1, 0, 0][axis], [2, 2, 1][axis]);
+            ([c[u], c[v], c[axis]], i)
+        })
+        .collect();
+    keyed.sort_unstable();
+    let mut runs: Vec<Vec<usize>> = Vec::new();
+    for (i, (key, block)) in keyed.iter().enumerate() {
+        let follows = i > 0 && {
+            let before = keyed[i - 1].0;
+            before[..2] == key[..2] && before[2] + 1 == key[2]
+        };
+        match (follows, runs.last_mut()) {
+            (true, Some(run)) => run.push(*block),
+            _ => runs.push(vec![*block]),
+        }
+    }
+    runs
+}
+
+/// The sums of [`give_back_broad_moves`], written by one run of blocks each.
+struct SharedSums(*mut Sums);
+// SAFETY: each run of [`runs_along`] holds its own blocks (every block is in exactly one
+// run), so the runs filtered in parallel never touch the same block's sums.
+unsafe impl Sync for SharedSums {}
+
+/// One box filter of 2·`reach` + 1 nodes (reach ≤ 8) along `axis`, in place, over the
+/// `runs` of blocks along it; nodes beyond the band hold none.
 fn box_along<P: Potential>(
     grid: &SparseGrid<P>,
-    (from, to): (&[Sums], &mut [Sums]),
-    axis: usize,
+    sums: &mut [Sums],
+    (runs, axis): (&[Vec<usize>], usize),
     reach: i32,
 ) {
-    const D: i32 = BLOCK_DIM;
+    const D: usize = BLOCK_DIM as usize;
     let scale = 1.0 / (2 * reach + 1) as f32;
-    to.par_iter_mut()
-        .zip(grid.blocks().par_iter())
-        .for_each(|(out, block)| {
-            let around = grid.neighbourhood_of(block);
-            // The blocks before and after along the axis (the 27's centre is 13).
-            let stride = [9, 3, 1][axis];
-            let side = |k: usize| around[k].ok().map(|id| &from[id.0 as usize]);
-            let lines = [side(13 - stride), side(13), side(13 + stride)];
-            // The average spreads over the band only: the blocks stored beyond it
-            // depend on where the skin lies on the grid, and so would the average.
-            let in_band = |o: usize| {
-                block.active[o / 64] >> (o % 64) & 1 == 1 && block.values[o].to_f32().abs() < 1.0
-            };
-            for u in 0..D {
-                for v in 0..D {
-                    let at = |t: i32| match axis {
-                        0 => glam::IVec3::new(t, u, v),
-                        1 => glam::IVec3::new(u, t, v),
-                        _ => glam::IVec3::new(u, v, t),
-                    };
-                    // The line through the three blocks, zeros where none is stored.
-                    let mut line = [[0.0f32; 3]; 3 * D as usize];
-                    for (i, source) in lines.iter().enumerate() {
-                        if let Some(values) = source {
-                            for t in 0..D {
-                                let l = at(t);
-                                line[i * D as usize + t as usize] =
-                                    values[node_offset(l.x, l.y, l.z)];
-                            }
-                        }
+    let reach = reach as usize;
+    let shared = SharedSums(sums.as_mut_ptr());
+    let shared = &shared;
+    runs.par_iter().for_each(|run| {
+        // SAFETY: the blocks of `run` are this closure's alone (`SharedSums`), and each
+        // index is a block's, within `sums`.
+        let block_sums = |b: usize| unsafe { &mut *shared.0.add(b) };
+        let mut line = vec![[0.0f32; 3]; D * run.len()];
+        for u in 0..BLOCK_DIM {
+            for v in 0..BLOCK_DIM {
+                let at = |t: usize| {
+                    let t = t as i32;
+                    match axis {
+                        0 => node_offset(t, u, v),
+                        1 => node_offset(u, t, v),
+                        _ => node_offset(u, v, t),
                     }
-                    // Each window summed afresh in the same order (a running sum would
-                    // round differently as the blocks fall: a drop's skin would depend
-                    // on where it lies on the grid).
+                };
+                for (k, &b) in run.iter().enumerate() {
+                    let values = block_sums(b);
                     for t in 0..D {
-                        let window = &line[(D + t - reach) as usize..=(D + t + reach) as usize];
+                        line[k * D + t] = values[at(t)];
+                    }
+                }
+                // Each window summed afresh in the same order (a running sum would round
+                // differently as the blocks fall: a drop's skin would depend on where it
+                // lies on the grid).
+                for (k, &b) in run.iter().enumerate() {
+                    let block = &grid.blocks()[b];
+                    let out = block_sums(b);
+                    for t in 0..D {
+                        let i = k * D + t;
+                        let window =
+                            &line[i.saturating_sub(reach)..(i + reach + 1).min(line.len())];
                         let acc = window
                             .iter()
                             .fold([0.0f32; 3], |a, v| [a[0] + v[0], a[1] + v[1], a[2] + v[2]]);
-                        let l = at(t);
-                        let o = node_offset(l.x, l.y, l.z);
-                        out[o] = match in_band(o) {
+                        // The average spreads over the band only: the blocks stored beyond
+                        // it depend on where the skin lies on the grid, and so would it.
+                        let o = at(t);
+                        let in_band = block.active[o / 64] >> (o % 64) & 1 == 1
+                            && block.values[o].to_f32().abs() < 1.0;
+                        out[o] = match in_band {
                             true => acc.map(|a| a * scale),
                             false => [0.0; 3],
                         };
                     }
                 }
             }
-        });
+        }
+    });
 }
 
 /// 0 below 0, 1 above 1, smooth between.
