@@ -47,6 +47,12 @@ fn cloud(cells: &[[i32; 3]], frame: i64, amount: f32) -> Particles {
 /// The last of `frames` frames of `cells` (jittered by `amount` radii) through the
 /// particle run at cell = r, smoothed by `smoothing` units (None: the default).
 fn skin(cells: &[[i32; 3]], frames: i64, amount: f32, smoothing: Option<f32>) -> Mesh {
+    run(frames, smoothing, |f| cloud(cells, f, amount))
+}
+
+/// The last of `frames` frames (`frame(f)`'s particles, from frame 1) through the particle
+/// run at cell = r, smoothed by `smoothing` units (None: the default).
+fn run(frames: i64, smoothing: Option<f32>, frame: impl Fn(i64) -> Particles) -> Mesh {
     let particles = ParticleInput {
         dx: R,
         ..ParticleInput::with_radius(R)
@@ -71,12 +77,7 @@ fn skin(cells: &[[i32; 3]], frames: i64, amount: f32, smoothing: Option<f32>) ->
     .expect("the stream starts");
     let mut last = None;
     for f in 1..=frames {
-        last = Some(
-            stream
-                .advance(cloud(cells, f, amount))
-                .expect("a frame")
-                .mesh,
-        );
+        last = Some(stream.advance(frame(f)).expect("a frame").mesh);
     }
     last.expect("frames")
 }
@@ -214,28 +215,8 @@ fn a_pool_at_rest_stays_where_its_particles_are() {
         p.y > liquid_top - 2.0 * R && (lo..hi).contains(&p.x) && (lo..hi).contains(&p.z)
     };
     let height = |frames: i64| {
-        let particles = ParticleInput {
-            dx: R,
-            ..ParticleInput::with_radius(R)
-        };
-        let mut stream = ParticleStream::start(StreamSpec {
-            particles,
-            params: Physics::default().particle_params(R, R),
-            fps: 24.0,
-            hold_volume: true,
-            velocities: false,
-            velocity_grid: false,
-            first_frame: 1,
-            reference: None,
-            region: None,
-            collider: None,
-        })
-        .expect("the stream starts");
-        let mut mesh = None;
-        for _ in 0..frames {
-            mesh = Some(stream.advance(cloud(&cells, 1, 0.3)).expect("a frame").mesh);
-        }
-        let mesh = mesh.expect("frames");
+        // The same particles on every frame: a liquid at rest.
+        let mesh = run(frames, None, |_| cloud(&cells, 1, 0.3));
         let top: Vec<f32> = mesh
             .positions
             .iter()

@@ -102,7 +102,8 @@ impl<P: Potential> Skin<P> {
         });
         let (mut weights, depths) = thin_weights(&self.grid, &mut self.rates);
         spare_small_pieces(&self.grid, &self.mesh, self.xf, &mut weights);
-        let before: Vec<[P; BLOCK_NODES]> = self.grid.blocks().iter().map(|b| b.values).collect();
+        let before: Option<Vec<[P; BLOCK_NODES]>> =
+            give_back.then(|| self.grid.blocks().iter().map(|b| b.values).collect());
         let mut left = time / (STEP / 6.0);
         while left > 1e-3 {
             let step = STEP * left.min(1.0);
@@ -114,7 +115,7 @@ impl<P: Potential> Skin<P> {
             );
             left -= 1.0;
         }
-        if give_back {
+        if let Some(before) = before {
             let scale = (time, self.params.band_width);
             give_back_broad_moves(&mut self.grid, &before, (&weights, &depths), scale);
         }
@@ -705,24 +706,20 @@ mod tests {
             center: Vec3::splat(0.013),
             radius: radius_voxels * dx,
         };
-        let mut skin: Skin<f32> = Skin::new(
-            &sphere,
-            SkinParams {
-                dx,
-                ..SkinParams::default()
-            },
-        );
+        let new = || -> Skin<f32> {
+            Skin::new(
+                &sphere,
+                SkinParams {
+                    dx,
+                    ..SkinParams::default()
+                },
+            )
+        };
+        let (mut skin, mut given_back) = (new(), new());
         let radius = |s: &Skin<f32>| {
             (3.0 * s.stats().volume / (4.0 * std::f64::consts::PI)).cbrt() / f64::from(dx)
         };
         let r0 = radius(&skin);
-        let mut given_back: Skin<f32> = Skin::new(
-            &sphere,
-            SkinParams {
-                dx,
-                ..SkinParams::default()
-            },
-        );
         // Half a voxel: the flow moves only the nodes within 1.5 voxels of the skin.
         let time = 4.0;
         skin.smooth_giving_back(time, None, false);
