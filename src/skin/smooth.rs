@@ -509,6 +509,10 @@ fn runs_along<P: Potential>(grid: &SparseGrid<P>, axis: usize) -> Vec<Vec<usize>
     runs
 }
 
+/// The units of a unit in the fixed point [`box_along`] sums in: quanta of 2⁻³², finer
+/// than an f32's at the moves' scale; a line's sums (under 2 a node) stay far within i64.
+const FIXED: f64 = 4294967296.0;
+
 /// The sums of [`give_back_broad_moves`], written by one run of blocks each.
 struct SharedSums(*mut Sums);
 // SAFETY: each run of [`runs_along`] holds its own blocks (every block is in exactly one
@@ -524,7 +528,7 @@ fn box_along<P: Potential>(
     reach: i32,
 ) {
     const D: usize = BLOCK_DIM as usize;
-    let scale = 1.0 / (2 * reach + 1) as f32;
+    let scale = 1.0 / (FIXED * (2 * reach + 1) as f64);
     let reach = reach as usize;
     let shared = SharedSums(sums.as_mut_ptr());
     let shared = &shared;
@@ -532,7 +536,11 @@ fn box_along<P: Potential>(
         // SAFETY: the blocks of `run` are this closure's alone (`SharedSums`), and each
         // index is a block's, within `sums`.
         let block_sums = |b: usize| unsafe { &mut *shared.0.add(b) };
-        let mut line = vec![[0.0f32; 3]; D * run.len()];
+        // Sums along the line in fixed point, exact: a window's sum is the same whatever
+        // the order it is taken in, so a drop's skin does not depend on where it lies on
+        // the grid (a float running sum would round differently as the blocks fall), and
+        // a running sum costs one subtraction a node whatever the reach.
+        let mut prefix = vec![[0i64; 3]; D * run.len() + 1];
         for u in 0..BLOCK_DIM {
             for v in 0..BLOCK_DIM {
                 let at = |t: usize| {
@@ -546,29 +554,28 @@ fn box_along<P: Potential>(
                 for (k, &b) in run.iter().enumerate() {
                     let values = block_sums(b);
                     for t in 0..D {
-                        line[k * D + t] = values[at(t)];
+                        let (i, s) = (k * D + t, values[at(t)]);
+                        let q = s.map(|x| (f64::from(x) * FIXED) as i64);
+                        prefix[i + 1] = [0, 1, 2].map(|c| prefix[i][c] + q[c]);
                     }
                 }
-                // Each window summed afresh in the same order (a running sum would round
-                // differently as the blocks fall: a drop's skin would depend on where it
-                // lies on the grid).
+                let len = D * run.len();
                 for (k, &b) in run.iter().enumerate() {
                     let block = &grid.blocks()[b];
                     let out = block_sums(b);
                     for t in 0..D {
                         let i = k * D + t;
-                        let window =
-                            &line[i.saturating_sub(reach)..(i + reach + 1).min(line.len())];
-                        let acc = window
-                            .iter()
-                            .fold([0.0f32; 3], |a, v| [a[0] + v[0], a[1] + v[1], a[2] + v[2]]);
+                        let (low, high) = (
+                            &prefix[i.saturating_sub(reach)],
+                            &prefix[(i + reach + 1).min(len)],
+                        );
                         // The average spreads over the band only: the blocks stored beyond
                         // it depend on where the skin lies on the grid, and so would it.
                         let o = at(t);
                         let in_band = block.active[o / 64] >> (o % 64) & 1 == 1
                             && block.values[o].to_f32().abs() < 1.0;
                         out[o] = match in_band {
-                            true => acc.map(|a| a * scale),
+                            true => [0, 1, 2].map(|c| ((high[c] - low[c]) as f64 * scale) as f32),
                             false => [0.0; 3],
                         };
                     }
