@@ -46,16 +46,20 @@ const CROWD_CUBES: f32 = 8.0;
 
 /// The support of the kernel that averages the velocities of particles matched from frame
 /// to frame, in particle radii ([`Density::velocity_within`]): the skin lies about a radius
-/// past the outer particles, and over this support a node there sees the outer layer
-/// only, whose motion is the surface's. Over the density's own support (4 radii at the default smoothing length)
+/// past the outer particles, and a node there sees mostly the outer layer, whose motion is
+/// the surface's. Over the density's own support (4 radii at the default smoothing length)
 /// the mean reaches two layers deeper, whose motion is not the surface's: on the
-/// SPlisHSPlasH dam break, carried by the mean over 2.5 radii instead of 4 (each particle's
-/// velocity gradient then no longer needed), the surface's temporal noise fell from 1.22×
-/// splashsurf's to 0.93×, its lag from 0.32 to 0.24 voxel, the frame's time by a tenth.
-/// Only for the one-trace carry, which reads it at the nodes near the skin: the velocity
-/// stepped in sub-steps (particles with velocities only) is read farther out, where this
-/// mean is zero — a ball of VDB points moving 4 voxels a frame then trailed 1.8 voxels.
-pub const VELOCITY_SUPPORT_RADII: f32 = 2.5;
+/// SPlisHSPlasH dam break (before the smoothing), the surface's temporal noise was 1.22×
+/// splashsurf's against 0.93× over 2.5 radii. With the smoothing, the particles' own jitter
+/// carried into the skin is what bumps are left (`activeskin bench --particles`, against
+/// smoothed splashsurf): over 2.5 radii the wave's run is 0.88× as bumpy, over 3.25 0.81×
+/// (flicker 0.99×, noise 0.92×, sheets 1.63 r), over 3.5 0.80× (flicker 1.01×, sheets
+/// 1.56 r), over 4 0.77× (flicker 1.04×, sheets 1.45 r: thinner than the liquid's 2r by
+/// more than a quarter). Only for the one-trace carry, which reads it at the nodes near
+/// the skin: the velocity stepped in sub-steps (particles with velocities only) is read
+/// farther out, where this mean is zero — a ball of VDB points moving 4 voxels a frame
+/// then trailed 1.8 voxels.
+pub const VELOCITY_SUPPORT_RADII: f32 = 3.25;
 
 /// Spray ([`Density::finding_spray`]): clusters of at most [`SPRAY_MOST`] particles
 /// linked by steps of at most this share of the kernel's support (3.25 radii at the
