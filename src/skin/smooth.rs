@@ -426,7 +426,6 @@ fn give_back_broad_moves<P: Potential>(
     (weights, depths): (&[[f32; BLOCK_NODES]], &[[u8; BLOCK_NODES]]),
     (time, band_width): (f32, f32),
 ) {
-    grid.refresh_neighbourhoods();
     let moved =
         |b: usize, o: usize| weights[b][o] > 0.0 && before[b][o].to_f32().abs() < NEXT_TO_SKIN;
     let bulk =
