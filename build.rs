@@ -72,6 +72,9 @@ fn build_bridge() {
         .std("c++17")
         .flag_if_supported("-Wno-deprecated-declarations")
         .flag_if_supported("-Wno-unused-parameter")
+        // No fused multiply-adds where the twin build (x86-64-v3, cc reads its target CPU)
+        // has them: it rounds as the baseline build does, the same frames bit for bit.
+        .flag_if_supported("-ffp-contract=off")
         // OpenVDB's headers are template-heavy; -O2 keeps volumeToMesh & co. fast in tests.
         .opt_level(2);
     build.includes(&extra);

@@ -17,6 +17,7 @@ mod particles;
 mod progress;
 mod render;
 mod skin;
+pub mod twin;
 mod validate;
 
 use std::path::PathBuf;
@@ -74,7 +75,9 @@ enum Command {
 fn command_line() -> clap::Command {
     // `--alpha -1` is a bad value, not an unknown option: it reaches the commands' own
     // checks and their one-line usage errors.
-    Cli::command().mut_subcommands(|c| c.allow_negative_numbers(true))
+    Cli::command()
+        .version(twin::VERSION)
+        .mut_subcommands(|c| c.allow_negative_numbers(true))
 }
 
 /// A mistake in the command line itself: a bad option value, a pattern without a frame

@@ -4,6 +4,7 @@ mod bench;
 mod cli;
 
 fn main() -> ExitCode {
+    cli::twin::take_over();
     end_quietly_on_a_closed_pipe();
     clean_up_when_stopped();
     cli::run()

@@ -197,6 +197,13 @@ fn the_batch_script_runs_each_chunk_and_the_chunks_meet_the_sequential_run() {
     // α = 48 at 24 fps: ln(40)·24/48 → 2 frames.
     assert!(script.contains("--warmup 2 --resume"), "{script}");
     assert!(!script.contains("--frames 1-14"), "{script}");
+    // The baseline binary, even when its twin build runs the farm command: a node that
+    // cannot run the twin would stop on its first instruction.
+    assert!(
+        script.contains(env!("CARGO_BIN_EXE_activeskin")),
+        "{script}"
+    );
+    assert!(!script.contains("x86-64-v3"), "{script}");
     let path = dir.path().join("farm.sh");
     std::fs::write(&path, &script).unwrap();
     // Each task as Slurm starts it, in the submit folder, in reverse order: the chunks do

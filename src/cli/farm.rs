@@ -75,7 +75,8 @@ pub fn run(args: &FarmArgs) -> anyhow::Result<()> {
         // Each chunk's USD stage lists the whole shot, the same file from every chunk.
         command.extend(["--shot-frames".into(), format!("{first}-{last}")]);
     }
-    let exe = std::env::current_exe().context("cannot tell where activeskin is")?;
+    // The baseline binary, not its twin: each node of a mixed farm chooses for its CPU.
+    let exe = super::twin::program().context("cannot tell where activeskin is")?;
     let here = std::env::current_dir().context("cannot read the current folder")?;
     let script = batch_script(
         &Batch {
