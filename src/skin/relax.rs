@@ -11,7 +11,7 @@ use crate::mesh::Surface;
 
 /// Steps of evening, and how far (voxels) a vertex may move in all: half a voxel keeps
 /// it within the cell it was made in or the next.
-const STEPS: usize = 5;
+const STEPS: usize = 8;
 const REACH: f32 = 0.5;
 
 impl<P: Potential> Skin<P> {
