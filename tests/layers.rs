@@ -7,6 +7,8 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
+mod common;
+
 /// The core: what a Python wheel or another program links without OpenVDB or files.
 const CORE: &[&str] = &[
     "budget",
@@ -72,38 +74,30 @@ fn code(text: &str) -> String {
 fn imports() -> BTreeMap<String, BTreeSet<String>> {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
-    let mut stack = vec![src.clone()];
-    while let Some(dir) = stack.pop() {
-        for entry in std::fs::read_dir(&dir).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                stack.push(path);
-                continue;
-            }
-            if path.extension().and_then(|e| e.to_str()) != Some("rs") {
-                continue;
-            }
-            let relative = path.strip_prefix(&src).unwrap();
-            let first = relative.components().next().unwrap();
-            let module = first
-                .as_os_str()
-                .to_string_lossy()
-                .trim_end_matches(".rs")
-                .to_string();
-            if matches!(module.as_str(), "lib" | "main" | "cli" | "bench") {
-                continue; // the root's error enum names every stage; the binary is on top
-            }
-            let text = code(&std::fs::read_to_string(&path).unwrap());
-            let names = graph.entry(module.clone()).or_default();
-            for (k, _) in text.match_indices("crate::") {
-                let rest = &text[k + "crate::".len()..];
-                let name: String = rest
-                    .chars()
-                    .take_while(|c| c.is_alphanumeric() || *c == '_')
-                    .collect();
-                if !name.is_empty() && name != module {
-                    names.insert(name);
-                }
+    for path in common::files_under(&src) {
+        if path.extension().and_then(|e| e.to_str()) != Some("rs") {
+            continue;
+        }
+        let relative = path.strip_prefix(&src).unwrap();
+        let first = relative.components().next().unwrap();
+        let module = first
+            .as_os_str()
+            .to_string_lossy()
+            .trim_end_matches(".rs")
+            .to_string();
+        if matches!(module.as_str(), "lib" | "main" | "cli" | "bench") {
+            continue; // the root's error enum names every stage; the binary is on top
+        }
+        let text = code(&std::fs::read_to_string(&path).unwrap());
+        let names = graph.entry(module.clone()).or_default();
+        for (k, _) in text.match_indices("crate::") {
+            let rest = &text[k + "crate::".len()..];
+            let name: String = rest
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
+            if !name.is_empty() && name != module {
+                names.insert(name);
             }
         }
     }

@@ -149,6 +149,24 @@ pub fn names(dir: &Path) -> Vec<String> {
     names
 }
 
+/// Every file under `dir`, in its subfolders too, sorted.
+pub fn files_under(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut files = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                files.push(path);
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
 /// A repeatable pseudo-random sequence (64-bit LCG, Knuth's constants).
 pub struct Lcg(pub u64);
 
