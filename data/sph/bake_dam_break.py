@@ -3,11 +3,19 @@
 `activeskin bench --particles` (and of anyone who wants to try the skin on a real liquid).
 
     python3 data/sph/bake_dam_break.py OUT_DIR [--frames 36] [--radius 0.005]
+                                               [--scene dam_break|double_dam_break]
 
 A column of water 0.32 x 0.52 x 0.35 m (about 52 k particles of radius 0.005, DFSPH,
 SPlisHSPlasH's own defaults otherwise) collapses in a tank 0.9 m long, runs along the
 floor at up to 5.6 m/s (47 voxels a frame at cell = radius, 24 fps), climbs the far wall
-and falls back as a sheet with splashes. Each frame k (k = 1 at t = 0, exactly k-1 / fps: the
+and falls back as a sheet with splashes.
+
+`--scene double_dam_break`, the second scene the look is judged on: two columns of water
+0.25 x 0.45 x 0.25 m (about 56 k particles) in opposite corners of a tank 0.8 x 0.8 m
+collapse, meet along the diagonal and throw up a thin sheet that tears into droplets,
+then the pool sloshes. Its frames are `OUT_DIR/double_dam_break_k.ply`.
+
+Each frame k (k = 1 at t = 0, exactly k-1 / fps: the
 solver's step is cut to land on it) is written as `OUT_DIR/dam_break_k.ply`, unpadded as
 SPlisHSPlasH numbers its exports: binary little-endian PLY with x y z, vx vy vz (m/s) and
 the particle's id, particles in id order (the same order every frame). A `done` file
@@ -29,8 +37,22 @@ import tempfile
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 
-def scene(radius):
-    """The scene: tank [0, 0.9] x [0, 0.6] x [0, 0.35], water at x < 0.32."""
+def scene(radius, name):
+    """The scene `name`: the dam break (tank [0, 0.9] x [0, 0.6] x [0, 0.35], water at
+    x < 0.32) or the double dam break (tank [0, 0.8] x [0, 0.7] x [0, 0.8], water in the
+    corners x, z < 0.25 and x, z > 0.55)."""
+    if name == "double_dam_break":
+        tank, columns = [0.8, 0.7, 0.8], [
+            ([radius, radius, radius], [0.25, 0.45, 0.25]),
+            # The first column mirrored: SPlisHSPlasH fills a block from a spacing past
+            # its start, so a block ending a radius short of a wall puts its last layer
+            # 2r from it, and the volume map's pressure there blows the column apart.
+            ([0.55 - radius, radius, 0.55 - radius], [0.8 - 2 * radius, 0.45, 0.8 - 2 * radius]),
+        ]
+    else:
+        tank, columns = [0.9, 0.6, 0.35], [
+            ([radius, radius, radius], [0.32, 0.52, 0.35 - radius]),
+        ]
     return {
         "Configuration": {
             "particleRadius": radius,
@@ -62,26 +84,22 @@ def scene(radius):
         "RigidBodies": [
             {
                 "geometryFile": "UNITBOX",
-                "translation": [0.45, 0.3, 0.175],
-                "scale": [0.9, 0.6, 0.35],
+                "translation": [t / 2 for t in tank],
+                "scale": tank,
                 "isDynamic": False,
                 "isWall": True,
                 "mapInvert": True,
                 "mapThickness": 0.0,
-                "mapResolution": [45, 30, 18],
+                "mapResolution": [round(50 * t) for t in tank],
             }
         ],
         "FluidBlocks": [
-            {
-                "denseMode": 0,
-                "start": [radius, radius, radius],
-                "end": [0.32, 0.52, 0.35 - radius],
-            }
+            {"denseMode": 0, "start": start, "end": end} for start, end in columns
         ],
     }
 
 
-def write_ply(path, ids, x, v):
+def write_ply(path, ids, x, v, name):
     import numpy as np
 
     n = len(ids)
@@ -96,7 +114,7 @@ def write_ply(path, ids, x, v):
     data["id"] = ids
     header = (
         "ply\nformat binary_little_endian 1.0\n"
-        "comment SPlisHSPlasH dam break (activeskin data/sph/bake_dam_break.py)\n"
+        f"comment SPlisHSPlasH {name.replace('_', ' ')} (activeskin data/sph/bake_dam_break.py)\n"
         f"element vertex {n}\n"
         "property float x\nproperty float y\nproperty float z\n"
         "property float vx\nproperty float vy\nproperty float vz\n"
@@ -115,6 +133,8 @@ def main():
     parser.add_argument("--frames", type=int, default=36)
     parser.add_argument("--fps", type=float, default=24.0)
     parser.add_argument("--radius", type=float, default=0.005)
+    parser.add_argument("--scene", choices=["dam_break", "double_dam_break"],
+                        default="dam_break")
     args = parser.parse_args()
 
     try:
@@ -136,9 +156,9 @@ def main():
         box = os.path.join(work, "UnitBox.obj")
         with open(box, "w") as f:
             f.write(UNIT_BOX)
-    description = scene(args.radius)
+    description = scene(args.radius, args.scene)
     description["RigidBodies"][0]["geometryFile"] = box
-    scene_file = os.path.join(work, "dam_break.json")
+    scene_file = os.path.join(work, args.scene + ".json")
     with open(scene_file, "w") as f:
         json.dump(description, f, indent=1)
 
@@ -158,8 +178,8 @@ def main():
         else:
             v = np.array([fluid.getVelocity(i) for i in range(n)], dtype=np.float32)
         order = np.argsort(ids)
-        write_ply(os.path.join(args.out, f"dam_break_{frame}.ply"),
-                  ids[order].astype(np.int32), x[order], v[order])
+        write_ply(os.path.join(args.out, f"{args.scene}_{frame}.ply"),
+                  ids[order].astype(np.int32), x[order], v[order], args.scene)
         speed = np.linalg.norm(v, axis=1)
         print(f"frame {frame}: {n} particles, speed max {speed.max():.2f} m/s, "
               f"mean {speed.mean():.2f}", flush=True)
@@ -188,7 +208,7 @@ def main():
     base.run()
     n = count[0]
     with open(os.path.join(args.out, "done"), "w") as f:
-        f.write(json.dumps({"frames": args.frames, "fps": args.fps,
+        f.write(json.dumps({"scene": args.scene, "frames": args.frames, "fps": args.fps,
                             "radius": args.radius, "particles": n}) + "\n")
     # SimulatorBase.cleanup() crashes in these bindings; nothing is left to release but
     # the scene and the boundary's volume map.

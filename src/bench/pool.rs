@@ -54,6 +54,8 @@ fn pool(dir: &Path) -> anyhow::Result<Shot> {
         frames: FRAMES,
         fps: 24.0,
         r: R,
+        stem: STEM,
+        run: 1..=FRAMES,
     })
 }
 

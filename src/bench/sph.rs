@@ -14,6 +14,7 @@
 //! ellipsoid of particles gliding and twisting, each particle on its exact trajectory,
 //! so that what the measures find there is each tool's own flicker, not the liquid's.
 
+use std::ops::RangeInclusive;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -31,10 +32,11 @@ use serde_json::json;
 
 use super::timed;
 
-/// The shots' file names, frame numbers unpadded as SPlisHSPlasH writes them.
-pub(super) const STEM: &str = "dam_break_";
+/// The file names of the shots the bench writes itself, frame numbers unpadded as
+/// SPlisHSPlasH writes them.
+pub(super) const STEM: &str = "frame_";
 
-/// A particle shot to race on: `frames` files `{STEM}{f}.ply` in `dir` at `fps`,
+/// A particle shot to race on: `frames` files `{stem}{f}.ply` in `dir` at `fps`,
 /// particles of radius `r`, named `name` in the lines and `key` in the JSON report.
 pub(super) struct Shot {
     /// Its name in the lines.
@@ -49,17 +51,75 @@ pub(super) struct Shot {
     pub fps: f32,
     /// The particles' radius.
     pub r: f32,
+    /// Its files' names before the frame number.
+    pub stem: &'static str,
+    /// The frames of its fastest run, where bumps are measured apart from the last
+    /// frames'.
+    pub run: RangeInclusive<usize>,
 }
 
-/// The dam break's baked cache at `fps` (`frames` frames: 36 at 24 fps, 1.46 s), baked
-/// now when missing and the bake can run; else why not. The 24 fps cache is
-/// `ACTIVESKIN_SPH_CACHE` when set, another rate's sits next to it.
-fn cache(fps: f32, frames: usize) -> Result<Shot, String> {
-    let mut dir = super::cache_dir(Some("ACTIVESKIN_SPH_CACHE"), "sph/dam_break")
+impl Shot {
+    /// Frame `f`'s file.
+    pub fn file(&self, f: usize) -> PathBuf {
+        self.dir.join(format!("{}{f}.ply", self.stem))
+    }
+
+    /// The frames' files with `token` for the frame number.
+    pub fn pattern(&self, token: &str) -> PathBuf {
+        self.dir.join(format!("{}{token}.ply", self.stem))
+    }
+}
+
+/// A SPlisHSPlasH scene of `data/sph/bake_dam_break.py`.
+struct Scene {
+    /// Its `--scene` and its cache's folder.
+    scene: &'static str,
+    /// Its files' names before the frame number.
+    stem: &'static str,
+    /// Its name in the lines and its key in the report at 24 fps.
+    name: &'static str,
+    key: &'static str,
+    /// The variable naming its 24 fps cache's folder.
+    variable: &'static str,
+    /// The frames of its fastest run at 24 fps.
+    run: RangeInclusive<usize>,
+}
+
+/// The dam break: a column collapsing, its wave running along the floor in frames
+/// 8–12, climbing the far wall and sloshing back.
+const DAM_BREAK: Scene = Scene {
+    scene: "dam_break",
+    stem: "dam_break_",
+    name: "SPH dam break",
+    key: "particles_sph",
+    variable: "ACTIVESKIN_SPH_CACHE",
+    run: 8..=12,
+};
+
+/// The double dam break: two columns in opposite corners, meeting along the diagonal
+/// and throwing up a sheet that tears into droplets (frames 7–11).
+const DOUBLE_DAM_BREAK: Scene = Scene {
+    scene: "double_dam_break",
+    stem: "double_dam_break_",
+    name: "SPH double dam break",
+    key: "particles_sph_double",
+    variable: "ACTIVESKIN_SPH_DOUBLE_CACHE",
+    run: 7..=11,
+};
+
+/// `scene`'s baked cache at `fps` (`frames` frames: 36 at 24 fps, 1.46 s), baked now
+/// when missing and the bake can run; else why not. The 24 fps cache is the scene's
+/// variable's folder when set, another rate's sits next to it.
+fn cache(scene: &Scene, fps: f32, frames: usize) -> Result<Shot, String> {
+    let mut dir = super::cache_dir(Some(scene.variable), &format!("sph/{}", scene.scene))
         .ok_or("no HOME to cache it in")?;
-    let mut name = "SPH dam break".to_string();
-    let mut key = "particles_sph".to_string();
+    let mut name = scene.name.to_string();
+    let mut key = scene.key.to_string();
+    let mut run = scene.run.clone();
     if fps != DAM_BREAK_FPS {
+        let scale = fps / DAM_BREAK_FPS;
+        let at = |f: usize| ((f - 1) as f32 * scale).round() as usize + 1;
+        run = at(*run.start())..=at(*run.end());
         let suffix = format!("_{fps}fps");
         dir.as_mut_os_string().push(&suffix);
         name += &format!(" at {fps} fps");
@@ -72,13 +132,15 @@ fn cache(fps: f32, frames: usize) -> Result<Shot, String> {
             return Err(format!("no cache in {} and no bake script", dir.display()));
         }
         eprintln!(
-            "baking the SPlisHSPlasH dam break into {} (once, a few minutes)",
+            "baking the SPlisHSPlasH {} into {} (once, a few minutes)",
+            scene.scene.replace('_', " "),
             dir.display()
         );
         let out = Command::new("python3")
             .arg(&script)
             .arg(&dir)
             .args(["--fps", &fps.to_string(), "--frames", &frames.to_string()])
+            .args(["--scene", scene.scene])
             .output()
             .map_err(|e| format!("cannot run python3: {e}"))?;
         if !out.status.success() || !done.is_file() {
@@ -104,6 +166,8 @@ fn cache(fps: f32, frames: usize) -> Result<Shot, String> {
         frames,
         fps,
         r,
+        stem: scene.stem,
+        run,
     })
 }
 
@@ -117,8 +181,8 @@ fn thinned(shot: &Shot, every: usize, dir: &Path) -> anyhow::Result<Shot> {
     std::fs::create_dir_all(dir)?;
     let frames = (shot.frames - 1) / every + 1;
     for k in 1..=frames {
-        let from = shot.dir.join(format!("{STEM}{}.ply", (k - 1) * every + 1));
-        let to = dir.join(format!("{STEM}{k}.ply"));
+        let from = shot.file((k - 1) * every + 1);
+        let to = dir.join(format!("{}{k}.ply", shot.stem));
         let _ = std::fs::remove_file(&to);
         if std::fs::hard_link(&from, &to).is_err() {
             std::fs::copy(&from, &to)?;
@@ -131,6 +195,8 @@ fn thinned(shot: &Shot, every: usize, dir: &Path) -> anyhow::Result<Shot> {
         frames,
         fps: shot.fps / every as f32,
         r: shot.r,
+        stem: shot.stem,
+        run: (*shot.run.start() - 1) / every + 1..=(*shot.run.end() - 1) / every + 1,
     })
 }
 
@@ -300,11 +366,13 @@ pub fn race(
     lines: &mut Vec<String>,
     report: &mut serde_json::Map<String, serde_json::Value>,
 ) -> anyhow::Result<()> {
-    match cache(DAM_BREAK_FPS, DAM_BREAK_FRAMES) {
-        Ok(shot) => {
-            race_on(&shot, root, splashsurf, extra, lines, report)?;
+    for scene in [&DAM_BREAK, &DOUBLE_DAM_BREAK] {
+        match cache(scene, DAM_BREAK_FPS, DAM_BREAK_FRAMES) {
+            Ok(shot) => {
+                race_on(&shot, root, splashsurf, extra, lines, report)?;
+            }
+            Err(why) => lines.push(format!("particles, {}: skipped: {why}", scene.name)),
         }
-        Err(why) => lines.push(format!("particles, SPH dam break: skipped: {why}")),
     }
     let rates_raced: &[f32] = if frame_rates { &[24.0, 48.0] } else { &[24.0] };
     let mut twists = Vec::new();
@@ -326,7 +394,7 @@ pub fn race(
     );
     // The 24 fps cache's simulation lands its steps on other times (its chaos, a
     // splash's details, differs): the slower shot is the faster one's every other frame.
-    match cache(2.0 * DAM_BREAK_FPS, 2 * DAM_BREAK_FRAMES - 1) {
+    match cache(&DAM_BREAK, 2.0 * DAM_BREAK_FPS, 2 * DAM_BREAK_FRAMES - 1) {
         Ok(shot) => {
             let fast = race_on(&shot, root, splashsurf, extra, lines, report)?;
             let every_other = thinned(&shot, 2, &root.join("thinned_in"))?;
@@ -360,17 +428,16 @@ pub(super) const SPLASHSURF_SMOOTHING: [&str; 5] = [
 /// The fewest single-layer particles a frame's sheets are measured on.
 const MIN_SHEET_PARTICLES: usize = 50;
 
-/// The frames of the dam break's wave running along the floor, and how many frames at
-/// the end are its sloshing.
-const WAVE_FRAMES: std::ops::RangeInclusive<usize> = 8..=12;
+/// How many frames at the end of a shot are its sloshing.
 const SLOSH_FRAMES: usize = 7;
 
-/// What a tool's surface looks like over a shot: bumps on the wave's run and on the
-/// last frames (degrees), pieces on the last frames, the median single-layer sheet
-/// (radii), the worst frame's particles more than r outside, and the time.
-fn look_of(m: &Measured, seconds: f64) -> serde_json::Value {
+/// What a tool's surface looks like over a shot: bumps on its fastest run (`run`) and
+/// on the last frames (degrees), pieces on the last frames, the median single-layer
+/// sheet (radii), the worst frame's particles more than r outside, and the time.
+fn look_of(m: &Measured, run: &RangeInclusive<usize>, seconds: f64) -> serde_json::Value {
     let frames = m.bumps.len();
-    let wave: Vec<f64> = WAVE_FRAMES
+    let wave: Vec<f64> = run
+        .clone()
         .filter(|f| *f <= frames)
         .map(|f| m.bumps[f - 1])
         .collect();
@@ -392,7 +459,8 @@ fn looks(
     lines: &mut Vec<String>,
     report: &mut serde_json::Map<String, serde_json::Value>,
 ) {
-    let [ours, raw, smoothed] = [ours, raw, smoothed].map(|t| t.map(|(m, s)| look_of(m, s)));
+    let [ours, raw, smoothed] =
+        [ours, raw, smoothed].map(|t| t.map(|(m, s)| look_of(m, &shot.run, s)));
     let say = |who: &str, l: &serde_json::Value| {
         format!(
             "{who} bumps {:.2}° / {:.2}°, pieces {:.1}, sheets {}, {:.2} % > r outside, flicker {:.3}, noise {:.3}, {:.1} s",
@@ -409,10 +477,10 @@ fn looks(
         )
     };
     let mut line = format!(
-        "particles, {}: the look (bumps on the wave's run, frames {}–{} / the last {SLOSH_FRAMES} frames; pieces there; median single-layer sheet)",
+        "particles, {}: the look (bumps on the fastest run, frames {}–{} / the last {SLOSH_FRAMES} frames; pieces there; median single-layer sheet)",
         shot.name,
-        WAVE_FRAMES.start(),
-        WAVE_FRAMES.end()
+        shot.run.start(),
+        shot.run.end()
     );
     for (who, l) in [
         ("ours", &ours),
@@ -573,6 +641,8 @@ fn twist(dir: &Path, fps: f32) -> anyhow::Result<Shot> {
         };
         activeskin::io::ply::write_particles(&dir.join(format!("{STEM}{f}.ply")), &frame)?;
     }
+    // Where it turns fastest, as the dam break's wave runs.
+    let run = (8.0 * fps / 24.0).round() as usize..=(12.0 * fps / 24.0).round() as usize;
     let (name, key) = match fps == 24.0 {
         true => ("smooth twist".to_string(), "particles_twist".to_string()),
         false => (
@@ -587,6 +657,8 @@ fn twist(dir: &Path, fps: f32) -> anyhow::Result<Shot> {
         frames,
         fps,
         r,
+        stem: STEM,
+        run,
     })
 }
 
@@ -595,7 +667,7 @@ fn twist(dir: &Path, fps: f32) -> anyhow::Result<Shot> {
 /// and each frame's time (its mesh checks cost a quarter of a frame), the same meshes.
 /// The first run's wall seconds.
 pub(super) fn run_ours(shot: &Shot, dir: &Path, extra: &str) -> anyhow::Result<f64> {
-    let input = shot.dir.join(format!("{STEM}$F.ply"));
+    let input = shot.pattern("$F");
     let radius = shot.r.to_string();
     let ours = |stats: bool| {
         let mut command = Command::new(std::env::current_exe()?);
@@ -630,14 +702,14 @@ pub(super) fn run_splashsurf(
     extra: &[&str],
     prefix: &str,
 ) -> anyhow::Result<Option<f64>> {
-    let (cache, frames, radius) = (&shot.dir, shot.frames, shot.r.to_string());
+    let (frames, radius) = (shot.frames, shot.r.to_string());
     let Some(binary) = splashsurf else {
         return Ok(None);
     };
     Ok(Some(timed(
         Command::new(binary)
             .arg("reconstruct")
-            .arg(cache.join(format!("{STEM}{{}}.ply")))
+            .arg(shot.pattern("{}"))
             .args(["-r", &radius, "-l", "2.0", "-c", "1.0", "-t", "0.6", "-q"])
             .args(extra)
             .args(["-n", &rayon::current_num_threads().to_string()])
@@ -663,7 +735,7 @@ pub(super) fn column(stats: &[serde_json::Value], key: &str) -> Vec<f64> {
 
 /// Lag: each frame's skin against that frame's own density iso-surface, mean voxels.
 fn lag(shot: &Shot, meshes: &[Mesh]) -> anyhow::Result<Vec<f64>> {
-    let (cache, r) = (&shot.dir, shot.r);
+    let r = shot.r;
     let density = ParticleInput {
         radius: r,
         ignore_radii: false,
@@ -678,8 +750,7 @@ fn lag(shot: &Shot, meshes: &[Mesh]) -> anyhow::Result<Vec<f64>> {
         .iter()
         .enumerate()
         .map(|(k, m)| {
-            let target =
-                density.target(&cache.join(format!("{STEM}{}.ply", k + 1)), k as i64 + 1)?;
+            let target = density.target(&shot.file(k + 1), k as i64 + 1)?;
             let sum: f64 = m
                 .positions
                 .par_iter()
@@ -745,14 +816,14 @@ fn race_on(
     lines: &mut Vec<String>,
     report: &mut serde_json::Map<String, serde_json::Value>,
 ) -> anyhow::Result<Raced> {
-    let (cache, frames, r) = (&shot.dir, shot.frames, shot.r);
+    let (frames, r) = (shot.frames, shot.r);
     let dir = root.join("sph");
     std::fs::create_dir_all(&dir)?;
     let ours_s = run_ours(shot, &dir, extra)?;
     let theirs_s = run_splashsurf(shot, &dir, splashsurf, &[], "theirs")?;
     let smoothed_s = run_splashsurf(shot, &dir, splashsurf, &SPLASHSURF_SMOOTHING, "smoothed")?;
     let clouds: Vec<Vec<Vec3>> = (1..=frames)
-        .map(|f| Ok(particles::read(&cache.join(format!("{STEM}{f}.ply")))?.positions))
+        .map(|f| Ok(particles::read(&shot.file(f))?.positions))
         .collect::<anyhow::Result<_>>()?;
     let read = |name: &dyn Fn(usize) -> String| -> anyhow::Result<Vec<Mesh>> {
         (1..=frames)
@@ -871,7 +942,7 @@ mod tests {
     fn the_twist_moves_its_particles_as_their_velocities_say() {
         let dir = tempfile::tempdir().unwrap();
         let shot = twist(dir.path(), 24.0).unwrap();
-        let read = |f: usize| particles::read(&shot.dir.join(format!("{STEM}{f}.ply"))).unwrap();
+        let read = |f: usize| particles::read(&shot.file(f)).unwrap();
         let (a, b) = (read(12), read(13));
         assert!(a.positions.len() > 10_000);
         assert_eq!(a.ids, b.ids);
@@ -906,7 +977,7 @@ mod tests {
         }
         // Frame 2 at 48 fps is half way to frame 2 at 24 fps.
         let read = |s: &Shot, f: usize| {
-            particles::read(&s.dir.join(format!("{STEM}{f}.ply")))
+            particles::read(&s.file(f))
                 .unwrap()
                 .positions
         };
