@@ -73,8 +73,8 @@ pub struct BenchArgs {
     /// Only the particle races (with --particles).
     #[arg(long, requires = "particles")]
     particles_only: bool,
-    /// Only the races in motion, the dam break and the smooth twist (with
-    /// --particles-only): for trying settings against splashsurf.
+    /// Only the races in motion, the two dam breaks, the smooth twist and the settled
+    /// pool (with --particles-only): for trying settings against splashsurf.
     #[arg(long, requires = "particles_only")]
     sph_only: bool,
     /// Extra options for our `particles` runs in motion, e.g. "--alpha 16" (with

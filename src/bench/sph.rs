@@ -97,14 +97,14 @@ const DAM_BREAK: Scene = Scene {
 };
 
 /// The double dam break: two columns in opposite corners, meeting along the diagonal
-/// and throwing up a sheet that tears into droplets (frames 7–11).
+/// and throwing up a sheet that tears into droplets: the fronts run in frames 6–10.
 const DOUBLE_DAM_BREAK: Scene = Scene {
     scene: "double_dam_break",
     stem: "double_dam_break_",
     name: "SPH double dam break",
     key: "particles_sph_double",
     variable: "ACTIVESKIN_SPH_DOUBLE_CACHE",
-    run: 7..=11,
+    run: 6..=10,
 };
 
 /// `scene`'s baked cache at `fps` (`frames` frames: 36 at 24 fps, 1.46 s), baked now
@@ -115,11 +115,8 @@ fn cache(scene: &Scene, fps: f32, frames: usize) -> Result<Shot, String> {
         .ok_or("no HOME to cache it in")?;
     let mut name = scene.name.to_string();
     let mut key = scene.key.to_string();
-    let mut run = scene.run.clone();
+    let run = at_rate(&scene.run, fps / DAM_BREAK_FPS);
     if fps != DAM_BREAK_FPS {
-        let scale = fps / DAM_BREAK_FPS;
-        let at = |f: usize| ((f - 1) as f32 * scale).round() as usize + 1;
-        run = at(*run.start())..=at(*run.end());
         let suffix = format!("_{fps}fps");
         dir.as_mut_os_string().push(&suffix);
         name += &format!(" at {fps} fps");
@@ -171,6 +168,12 @@ fn cache(scene: &Scene, fps: f32, frames: usize) -> Result<Shot, String> {
     })
 }
 
+/// The frames `run` (from 1) at `scale` times the frame rate: the same times.
+fn at_rate(run: &RangeInclusive<usize>, scale: f32) -> RangeInclusive<usize> {
+    let at = |f: usize| ((f - 1) as f32 * scale).round() as usize + 1;
+    at(*run.start())..=at(*run.end())
+}
+
 /// The dam break's frame rate and frame count (1.46 s).
 const DAM_BREAK_FPS: f32 = 24.0;
 const DAM_BREAK_FRAMES: usize = 36;
@@ -196,7 +199,7 @@ fn thinned(shot: &Shot, every: usize, dir: &Path) -> anyhow::Result<Shot> {
         fps: shot.fps / every as f32,
         r: shot.r,
         stem: shot.stem,
-        run: (*shot.run.start() - 1) / every + 1..=(*shot.run.end() - 1) / every + 1,
+        run: at_rate(&shot.run, 1.0 / every as f32),
     })
 }
 
@@ -642,7 +645,7 @@ fn twist(dir: &Path, fps: f32) -> anyhow::Result<Shot> {
         activeskin::io::ply::write_particles(&dir.join(format!("{STEM}{f}.ply")), &frame)?;
     }
     // Where it turns fastest, as the dam break's wave runs.
-    let run = (8.0 * fps / 24.0).round() as usize..=(12.0 * fps / 24.0).round() as usize;
+    let run = at_rate(&(8..=12), fps / 24.0);
     let (name, key) = match fps == 24.0 {
         true => ("smooth twist".to_string(), "particles_twist".to_string()),
         false => (
@@ -970,17 +973,17 @@ mod tests {
         assert_eq!((slow.frames, fast.frames), (24, 47));
         let thin = thinned(&fast, 2, &dir.path().join("thin")).unwrap();
         assert_eq!((thin.frames, thin.fps), (24, 24.0));
+        // The fastest run is at the same times at either rate.
+        assert_eq!((slow.run.clone(), fast.run.clone()), (8..=12, 15..=23));
+        assert_eq!(thin.run, slow.run);
+        assert_eq!(at_rate(&DOUBLE_DAM_BREAK.run, 2.0), 11..=19);
         for f in 1..=24 {
             let name = format!("{STEM}{f}.ply");
             let a = std::fs::read(slow.dir.join(&name)).unwrap();
             assert_eq!(a, std::fs::read(thin.dir.join(&name)).unwrap(), "frame {f}");
         }
         // Frame 2 at 48 fps is half way to frame 2 at 24 fps.
-        let read = |s: &Shot, f: usize| {
-            particles::read(&s.file(f))
-                .unwrap()
-                .positions
-        };
+        let read = |s: &Shot, f: usize| particles::read(&s.file(f)).unwrap().positions;
         let (a, half, b) = (read(&slow, 1), read(&fast, 2), read(&slow, 2));
         let step = |x: &[Vec3], y: &[Vec3]| (x[0] - y[0]).length();
         let ratio = step(&half, &a) / step(&b, &a);
