@@ -11,7 +11,7 @@ floor at up to 5.6 m/s (47 voxels a frame at cell = radius, 24 fps), climbs the 
 and falls back as a sheet with splashes.
 
 `--scene double_dam_break`, the second scene the look is judged on: two columns of water
-0.25 x 0.45 x 0.25 m (about 56 k particles) in opposite corners of a tank 0.8 x 0.8 m
+0.25 x 0.45 x 0.25 m (about 51 k particles) in opposite corners of a tank 0.8 x 0.8 m
 collapse, meet along the diagonal and throw up a thin sheet that tears into droplets,
 then the pool sloshes. Its frames are `OUT_DIR/double_dam_break_k.ply`.
 

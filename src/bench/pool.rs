@@ -54,7 +54,7 @@ fn pool(dir: &Path) -> anyhow::Result<Shot> {
         frames: FRAMES,
         fps: 24.0,
         r: R,
-        stem: STEM,
+        stem: STEM.to_string(),
         run: 1..=FRAMES,
     })
 }

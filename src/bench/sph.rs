@@ -52,7 +52,7 @@ pub(super) struct Shot {
     /// The particles' radius.
     pub r: f32,
     /// Its files' names before the frame number.
-    pub stem: &'static str,
+    pub stem: String,
     /// The frames of its fastest run, where bumps are measured apart from the last
     /// frames'.
     pub run: RangeInclusive<usize>,
@@ -72,10 +72,8 @@ impl Shot {
 
 /// A SPlisHSPlasH scene of `data/sph/bake_dam_break.py`.
 struct Scene {
-    /// Its `--scene` and its cache's folder.
+    /// Its `--scene`, its cache's folder and its files' names before `_{frame}.ply`.
     scene: &'static str,
-    /// Its files' names before the frame number.
-    stem: &'static str,
     /// Its name in the lines and its key in the report at 24 fps.
     name: &'static str,
     key: &'static str,
@@ -89,7 +87,6 @@ struct Scene {
 /// 8–12, climbing the far wall and sloshing back.
 const DAM_BREAK: Scene = Scene {
     scene: "dam_break",
-    stem: "dam_break_",
     name: "SPH dam break",
     key: "particles_sph",
     variable: "ACTIVESKIN_SPH_CACHE",
@@ -100,7 +97,6 @@ const DAM_BREAK: Scene = Scene {
 /// and throwing up a sheet that tears into droplets: the fronts run in frames 6–10.
 const DOUBLE_DAM_BREAK: Scene = Scene {
     scene: "double_dam_break",
-    stem: "double_dam_break_",
     name: "SPH double dam break",
     key: "particles_sph_double",
     variable: "ACTIVESKIN_SPH_DOUBLE_CACHE",
@@ -115,8 +111,8 @@ fn cache(scene: &Scene, fps: f32, frames: usize) -> Result<Shot, String> {
         .ok_or("no HOME to cache it in")?;
     let mut name = scene.name.to_string();
     let mut key = scene.key.to_string();
-    let run = at_rate(&scene.run, fps / DAM_BREAK_FPS);
-    if fps != DAM_BREAK_FPS {
+    let run = at_rate(&scene.run, fps / BAKE_FPS);
+    if fps != BAKE_FPS {
         let suffix = format!("_{fps}fps");
         dir.as_mut_os_string().push(&suffix);
         name += &format!(" at {fps} fps");
@@ -155,7 +151,7 @@ fn cache(scene: &Scene, fps: f32, frames: usize) -> Result<Shot, String> {
     let frames = meta["frames"].as_u64().ok_or("no frame count")? as usize;
     let r = meta["radius"].as_f64().ok_or("no radius")? as f32;
     // Caches baked before the rate was written are at 24 fps.
-    let fps = meta["fps"].as_f64().map_or(DAM_BREAK_FPS, |f| f as f32);
+    let fps = meta["fps"].as_f64().map_or(BAKE_FPS, |f| f as f32);
     Ok(Shot {
         name,
         key,
@@ -163,7 +159,7 @@ fn cache(scene: &Scene, fps: f32, frames: usize) -> Result<Shot, String> {
         frames,
         fps,
         r,
-        stem: scene.stem,
+        stem: format!("{}_", scene.scene),
         run,
     })
 }
@@ -174,9 +170,9 @@ fn at_rate(run: &RangeInclusive<usize>, scale: f32) -> RangeInclusive<usize> {
     at(*run.start())..=at(*run.end())
 }
 
-/// The dam break's frame rate and frame count (1.46 s).
-const DAM_BREAK_FPS: f32 = 24.0;
-const DAM_BREAK_FRAMES: usize = 36;
+/// The scenes' frame rate and frame count as baked for the race (1.46 s).
+const BAKE_FPS: f32 = 24.0;
+const BAKE_FRAMES: usize = 36;
 
 /// Every `every`-th frame of `shot` from its first, as a shot of its own (hard links, or
 /// copies where the file system has none, in `dir`): the same simulation at a lower rate.
@@ -198,7 +194,7 @@ fn thinned(shot: &Shot, every: usize, dir: &Path) -> anyhow::Result<Shot> {
         frames,
         fps: shot.fps / every as f32,
         r: shot.r,
-        stem: shot.stem,
+        stem: shot.stem.clone(),
         run: at_rate(&shot.run, 1.0 / every as f32),
     })
 }
@@ -370,7 +366,7 @@ pub fn race(
     report: &mut serde_json::Map<String, serde_json::Value>,
 ) -> anyhow::Result<()> {
     for scene in [&DAM_BREAK, &DOUBLE_DAM_BREAK] {
-        match cache(scene, DAM_BREAK_FPS, DAM_BREAK_FRAMES) {
+        match cache(scene, BAKE_FPS, BAKE_FRAMES) {
             Ok(shot) => {
                 race_on(&shot, root, splashsurf, extra, lines, report)?;
             }
@@ -397,7 +393,7 @@ pub fn race(
     );
     // The 24 fps cache's simulation lands its steps on other times (its chaos, a
     // splash's details, differs): the slower shot is the faster one's every other frame.
-    match cache(&DAM_BREAK, 2.0 * DAM_BREAK_FPS, 2 * DAM_BREAK_FRAMES - 1) {
+    match cache(&DAM_BREAK, 2.0 * BAKE_FPS, 2 * BAKE_FRAMES - 1) {
         Ok(shot) => {
             let fast = race_on(&shot, root, splashsurf, extra, lines, report)?;
             let every_other = thinned(&shot, 2, &root.join("thinned_in"))?;
@@ -645,7 +641,7 @@ fn twist(dir: &Path, fps: f32) -> anyhow::Result<Shot> {
         activeskin::io::ply::write_particles(&dir.join(format!("{STEM}{f}.ply")), &frame)?;
     }
     // Where it turns fastest, as the dam break's wave runs.
-    let run = at_rate(&(8..=12), fps / 24.0);
+    let run = at_rate(&DAM_BREAK.run, fps / BAKE_FPS);
     let (name, key) = match fps == 24.0 {
         true => ("smooth twist".to_string(), "particles_twist".to_string()),
         false => (
@@ -660,7 +656,7 @@ fn twist(dir: &Path, fps: f32) -> anyhow::Result<Shot> {
         frames,
         fps,
         r,
-        stem: STEM,
+        stem: STEM.to_string(),
         run,
     })
 }
@@ -978,9 +974,8 @@ mod tests {
         assert_eq!(thin.run, slow.run);
         assert_eq!(at_rate(&DOUBLE_DAM_BREAK.run, 2.0), 11..=19);
         for f in 1..=24 {
-            let name = format!("{STEM}{f}.ply");
-            let a = std::fs::read(slow.dir.join(&name)).unwrap();
-            assert_eq!(a, std::fs::read(thin.dir.join(&name)).unwrap(), "frame {f}");
+            let a = std::fs::read(slow.file(f)).unwrap();
+            assert_eq!(a, std::fs::read(thin.file(f)).unwrap(), "frame {f}");
         }
         // Frame 2 at 48 fps is half way to frame 2 at 24 fps.
         let read = |s: &Shot, f: usize| particles::read(&s.file(f)).unwrap().positions;
