@@ -100,7 +100,9 @@ pub fn relax_on_surface(mesh: &mut Mesh, (steps, reach): (usize, f32), surface: 
 
 /// Puts back where they were the corners of each triangle a step turned over (facing
 /// against its corners' normals where it did not before), until none is: moving along a
-/// thin neck or a sharp rim, a vertex can pass its neighbour.
+/// thin neck or a sharp rim, a vertex can pass its neighbour. The triangles are checked
+/// in parallel against the state a round starts from, the few turned over then undone
+/// together (the same whatever the threads).
 fn undo_folds(
     triangles: &[[u32; 3]],
     (was, was_normal): (&[Vec3], &[Vec3]),
@@ -112,14 +114,19 @@ fn undo_folds(
         (b - a).cross(c - a).dot(n) > 0.0
     };
     loop {
+        let folded: Vec<&[u32; 3]> = {
+            let (now, now_normal) = (&*now, &*now_normal);
+            triangles
+                .par_iter()
+                .filter(|t| !facing(now, now_normal, t) && facing(was, was_normal, t))
+                .collect()
+        };
         let mut undone = false;
-        for t in triangles {
-            if !facing(now, now_normal, t) && facing(was, was_normal, t) {
-                for &i in t {
-                    let i = i as usize;
-                    undone |= now[i] != was[i];
-                    (now[i], now_normal[i]) = (was[i], was_normal[i]);
-                }
+        for t in folded {
+            for &i in t {
+                let i = i as usize;
+                undone |= now[i] != was[i];
+                (now[i], now_normal[i]) = (was[i], was_normal[i]);
             }
         }
         if !undone {

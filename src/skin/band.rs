@@ -221,7 +221,27 @@ pub(crate) fn clamp_at_crossings<P: Potential>(
     band_width: f32,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
 ) {
-    each_halo(grid, scratch, |halo, _, out| {
+    clamp_at_crossings_in(grid, band_width, scratch, |_| true);
+}
+
+/// [`clamp_at_crossings`] in the blocks `within` says (the others as they are): where
+/// nodes were set from outside the skin's motion, the rest of the band a distance already.
+pub(crate) fn clamp_at_crossings_in<P: Potential>(
+    grid: &mut SparseGrid<P>,
+    band_width: f32,
+    scratch: &mut Vec<[f32; BLOCK_NODES]>,
+    within: impl Fn(IVec3) -> bool + Sync,
+) {
+    scratch.resize(grid.block_count(), [0.0; BLOCK_NODES]);
+    let blocks = scratch.par_iter_mut().zip(grid.blocks().par_iter());
+    blocks.for_each_init(Box::<Halo>::default, |halo, (out, block)| {
+        if !within(block.coord) {
+            for (out, v) in out.iter_mut().zip(&block.values) {
+                *out = v.to_f32();
+            }
+            return;
+        }
+        halo.gather(grid, block);
         let signs = InsideRows::of(halo);
         for x in 0..BLOCK_DIM {
             for y in 0..BLOCK_DIM {

@@ -130,9 +130,8 @@ impl<P: Potential> Skin<P> {
             self.polygonize();
             self.drop_crumbs();
         }
-        if take(self) {
-            self.polygonize();
-        }
+        // Meshed by the restore.
+        take(self);
         let level_set = self.to_level_set();
         self.restore(&level_set)
             .expect("a skin's own level set has its voxel size and origin");

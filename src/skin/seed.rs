@@ -164,7 +164,8 @@ impl<P: Potential> Skin<P> {
                 }
             }
         }
-        self.store_crossed_cells();
+        let changed: Vec<IVec3> = wanted.iter().map(|(c, _)| *c).collect();
+        self.store_crossed_cells(&changed);
         // The seeds hold the target's own distance estimate (first order for densities):
         // made a distance like the rest of the band before anything reads or writes it.
         for _ in 0..3 {
@@ -175,9 +176,10 @@ impl<P: Potential> Skin<P> {
         wanted.len()
     }
 
-    /// After nodes were set from outside the skin's own motion (seeds, spray): as at a
-    /// start, every crossed cell stored, its corners in the band.
-    pub(super) fn store_crossed_cells(&mut self) {
+    /// After nodes were set from outside the skin's own motion (seeds, spray) in the
+    /// blocks `changed`: as at a start, every crossed cell stored, its corners in the band
+    /// (the corners clamped in those blocks and the blocks around them).
+    pub(super) fn store_crossed_cells(&mut self, changed: &[IVec3]) {
         for _ in 0..4 {
             let missing = super::band::unstored_crossed(&self.grid);
             if missing.is_empty() {
@@ -188,7 +190,12 @@ impl<P: Potential> Skin<P> {
             }
         }
         let w = self.params.band_width;
-        super::band::clamp_at_crossings(&mut self.grid, w, &mut self.rates);
+        let near: HashSet<IVec3> = changed
+            .iter()
+            .flat_map(|&c| AROUND.iter().map(move |&d| c + d))
+            .collect();
+        let within = |c: IVec3| near.contains(&c);
+        super::band::clamp_at_crossings_in(&mut self.grid, w, &mut self.rates, within);
         crate::grid::tube::upkeep(&mut self.grid);
     }
 

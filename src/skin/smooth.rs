@@ -447,9 +447,11 @@ fn give_back_broad_moves<P: Potential>(
             s
         })
         .collect();
-    // Boxes of 2·reach + 1 nodes along each axis, a variance of reach·(reach + 1)/3 each.
+    // Boxes of 2·reach + 1 nodes along each axis, a variance of reach·(reach + 1)/3 each:
+    // two where they reach far enough (a tent; each box is a pass over the band, and a
+    // third, nearer a Gaussian, cost 2 % of the double dam break's time).
     let variance = BROAD * time;
-    let reach = ((((1.0 + 4.0 * variance).sqrt() - 1.0) / 2.0).round() as i32).clamp(1, 8);
+    let reach = ((((1.0 + 6.0 * variance).sqrt() - 1.0) / 2.0).round() as i32).clamp(1, 8);
     let boxes = ((3.0 * variance / (reach * (reach + 1)) as f32).round() as usize).max(1);
     for axis in [0usize, 1, 2] {
         let runs = runs_along(grid, axis);

@@ -5,7 +5,7 @@
 //! elsewhere.
 
 use glam::{IVec3, Vec3};
-use hashbrown::HashMap;
+use rayon::prelude::*;
 
 use super::Skin;
 use crate::grid::{block_of, node_offset, Potential, BLOCK_DIM};
@@ -44,30 +44,35 @@ impl<P: Potential> Skin<P> {
         let xf = self.xf;
         let reach = (outer / dx).ceil() as i32;
         let blend = (outer - inner).max(f32::MIN_POSITIVE);
-        let mut weights: HashMap<IVec3, f32> = HashMap::new();
-        for &p in points.iter() {
-            let c = ((p - xf.origin) / dx).round().as_ivec3();
-            for x in -reach..=reach {
-                for y in -reach..=reach {
-                    for z in -reach..=reach {
-                        let ijk = c + IVec3::new(x, y, z);
-                        let d = (xf.apply(ijk.as_vec3()) - p).length();
-                        let t = ((outer - d) / blend).clamp(0.0, 1.0);
-                        if t > 0.0 {
-                            let t = t * t * (3.0 - 2.0 * t);
-                            let e = weights.entry(ijk).or_insert(0.0);
-                            *e = e.max(t);
-                        }
-                    }
-                }
-            }
-        }
-        let mut nodes: Vec<(IVec3, f32)> = weights.into_iter().collect();
-        nodes.sort_unstable_by_key(|(ijk, _)| ijk.to_array());
-        let mut changed = false;
-        for (ijk, t) in nodes {
-            let d = target.distance(xf.apply(ijk.as_vec3()));
-            let goal = (d / (w * dx)).clamp(-1.0, 1.0);
+        // Each node's weight (the greatest any spray particle gives it) and the target's
+        // distance there, in parallel; the same whatever the threads.
+        let mut nodes: Vec<(IVec3, f32)> = points
+            .par_iter()
+            .flat_map_iter(|&p| {
+                let c = ((p - xf.origin) / dx).round().as_ivec3();
+                let side = 2 * reach + 1;
+                (0..side * side * side).filter_map(move |n| {
+                    let e = IVec3::new(n / (side * side), n / side % side, n % side);
+                    let ijk = c + e - IVec3::splat(reach);
+                    let d = (xf.apply(ijk.as_vec3()) - p).length();
+                    let t = ((outer - d) / blend).clamp(0.0, 1.0);
+                    (t > 0.0).then_some((ijk, t * t * (3.0 - 2.0 * t)))
+                })
+            })
+            .collect();
+        nodes.par_sort_unstable_by(|(a, s), (b, t)| {
+            a.to_array().cmp(&b.to_array()).then(t.total_cmp(s))
+        });
+        nodes.dedup_by_key(|(ijk, _)| *ijk);
+        let goals: Vec<f32> = nodes
+            .par_iter()
+            .map(|&(ijk, _)| {
+                let d = target.distance(xf.apply(ijk.as_vec3()));
+                (d / (w * dx)).clamp(-1.0, 1.0)
+            })
+            .collect();
+        let mut changed = Vec::new();
+        for ((ijk, t), goal) in nodes.into_iter().zip(goals) {
             let coord = block_of(ijk);
             let local = ijk - coord * BLOCK_DIM;
             let id = self.grid.touch(coord);
@@ -77,13 +82,17 @@ impl<P: Potential> Skin<P> {
             let new = f + t * (goal - f);
             if new != f {
                 *v = P::from_f32(new);
-                changed = true;
+                if changed.last() != Some(&coord) {
+                    changed.push(coord);
+                }
             }
         }
-        if !changed {
+        if changed.is_empty() {
             return false;
         }
-        self.store_crossed_cells();
+        changed.sort_unstable_by_key(|c| c.to_array());
+        changed.dedup();
+        self.store_crossed_cells(&changed);
         true
     }
 }
