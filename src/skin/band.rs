@@ -236,9 +236,6 @@ pub(crate) fn clamp_at_crossings_in<P: Potential>(
     let blocks = scratch.par_iter_mut().zip(grid.blocks().par_iter());
     blocks.for_each_init(Box::<Halo>::default, |halo, (out, block)| {
         if !within(block.coord) {
-            for (out, v) in out.iter_mut().zip(&block.values) {
-                *out = v.to_f32();
-            }
             return;
         }
         halo.gather(grid, block);
@@ -266,7 +263,15 @@ pub(crate) fn clamp_at_crossings_in<P: Potential>(
             }
         }
     });
-    write_back(grid, scratch, true);
+    // Only the blocks clamped are written: the others' slots hold nothing of theirs.
+    let blocks = grid.blocks_mut().par_iter_mut().zip(scratch.par_iter());
+    blocks.for_each(|(block, values)| {
+        if within(block.coord) {
+            for (v, &f) in block.values.iter_mut().zip(values.iter()) {
+                *v = P::from_f32(f);
+            }
+        }
+    });
 }
 
 /// The largest |f| a corner of a crossed cell starts with: inside the band.

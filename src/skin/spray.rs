@@ -82,6 +82,8 @@ impl<P: Potential> Skin<P> {
             let new = f + t * (goal - f);
             if new != f {
                 *v = P::from_f32(new);
+                // Sorted by node, a block's nodes mostly follow one another; repeats are
+                // harmless (a set is made of them).
                 if changed.last() != Some(&coord) {
                     changed.push(coord);
                 }
@@ -90,8 +92,6 @@ impl<P: Potential> Skin<P> {
         if changed.is_empty() {
             return false;
         }
-        changed.sort_unstable_by_key(|c| c.to_array());
-        changed.dedup();
         self.store_crossed_cells(&changed);
         true
     }
