@@ -6,7 +6,7 @@
 use glam::{IVec3, Vec3};
 
 use super::Skin;
-use crate::grid::{block_of, IndexToWorld, Potential, SparseGrid, WideHalo, BLOCK_DIM};
+use crate::grid::{block_of, IndexToWorld, Potential, SparseGrid, WideHalo, BLOCK_DIM, WIDE_DIM};
 use crate::mesh::Surface;
 
 /// Steps of evening, and how far (voxels) a vertex may move in all: half a voxel keeps
@@ -75,6 +75,31 @@ impl<P: Potential> OnGrid<'_, P> {
         }
         self.grid.value(ijk)
     }
+
+    /// The potential at the eight corners of the cell with lower node `lower` ([`corner`]'s
+    /// order): one reach test and fixed strides where the probe's halo holds the cell,
+    /// as it nearly always does (each evening step reads every vertex's cell).
+    fn corners(&self, probe: &Probe, lower: IVec3) -> [f32; 8] {
+        if let Some(coord) = probe.block {
+            let l = lower - coord * BLOCK_DIM;
+            if l.min_element() >= -2 && l.max_element() < BLOCK_DIM + 1 {
+                let (i, s) = (WideHalo::index(l.x, l.y, l.z), WIDE_DIM);
+                let v = &probe.halo.values;
+                let plane = i + s * s;
+                return [
+                    v[i],
+                    v[i + 1],
+                    v[i + s],
+                    v[i + s + 1],
+                    v[plane],
+                    v[plane + 1],
+                    v[plane + s],
+                    v[plane + s + 1],
+                ];
+            }
+        }
+        std::array::from_fn(|n| self.node(probe, lower + corner(n)))
+    }
 }
 
 impl<P: Potential> Surface for OnGrid<'_, P> {
@@ -90,7 +115,7 @@ impl<P: Potential> Surface for OnGrid<'_, P> {
     fn value_and_gradient(&self, probe: &mut Probe, home: Vec3, p: Vec3) -> Option<(f32, Vec3)> {
         self.gather(probe, home);
         let Cell { lower, t } = self.cell(p);
-        let v: [f32; 8] = std::array::from_fn(|n| self.node(probe, lower + corner(n)));
+        let v = self.corners(probe, lower);
         let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
         // Along z, then y, then x (corners z fastest).
         let e: [f32; 4] = std::array::from_fn(|k| lerp(v[2 * k], v[2 * k + 1], t.z));
