@@ -260,6 +260,8 @@ pub fn run<'t>(
 ) -> Result<(), FrameError> {
     check_fps(fps)?;
     skin.limit_substeps(Some(crate::skin::MAX_SUBSTEPS));
+    // The topology written is counted as each frame is written (`settle_and_write`).
+    skin.count_topology(false);
     outputs.frame_camera(skin.mesh());
     outputs.set_frame_rate(fps);
     let (start, restored) = match resume(&mut skin, outputs, (first, last), write_from, fps)? {

@@ -319,6 +319,9 @@ pub struct Skin<P> {
     track_change: bool,
     /// At most this many sub-steps an advance ([`Skin::limit_substeps`]).
     max_substeps: Option<u32>,
+    /// Whether an advance's stats count the mesh's χ and components
+    /// ([`Skin::count_topology`]).
+    count_topology: bool,
 }
 
 impl<P: Potential> Skin<P> {
@@ -395,6 +398,7 @@ impl<P: Potential> Skin<P> {
             last_change: 0.0,
             track_change: false,
             max_substeps: None,
+            count_topology: true,
         };
         for _ in 0..3 {
             band::renormalize(&mut skin.grid, w, 0.0, &mut skin.rates);
@@ -525,7 +529,7 @@ impl<P: Potential> Skin<P> {
                     return StepStats {
                         substeps,
                         stopped: Some(Stopped { needed, limit }),
-                        ..self.stats()
+                        ..self.stats_with(self.count_topology)
                     };
                 }
             }
@@ -537,7 +541,7 @@ impl<P: Potential> Skin<P> {
         }
         StepStats {
             substeps,
-            ..self.stats()
+            ..self.stats_with(self.count_topology)
         }
     }
 
@@ -773,6 +777,13 @@ impl<P: Potential> Skin<P> {
     /// (its [`StepStats::stopped`] says why); `None`: no limit.
     pub fn limit_substeps(&mut self, most: Option<u32>) {
         self.max_substeps = most;
+    }
+
+    /// Whether the stats an advance returns count the mesh's χ and components (the
+    /// default): two walks over the whole mesh on one thread, which a caller taking the
+    /// topology elsewhere (the frame loop, when it writes) need not pay each frame.
+    pub fn count_topology(&mut self, on: bool) {
+        self.count_topology = on;
     }
 
     /// Record the largest |Δφ| of each step in [`StepStats::max_change_voxels`] (costs a

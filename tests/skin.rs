@@ -398,3 +398,23 @@ fn a_start_target_steeper_than_a_distance_still_gives_a_closed_skin() {
         assert_watertight(skin.mesh(), &format!("×{k} settled"));
     }
 }
+
+/// An advance's stats count the skin's χ and components unless told not to (the frame
+/// loop counts them as it writes); the skin moves the same either way.
+#[test]
+fn an_advance_counts_topology_unless_told_not_to() {
+    let (start, target) = (sphere(0.6), sphere(0.5));
+    let new = || -> Skin<f32> { Skin::new(&start, params(24.0, 0.0)) };
+    let (mut counted, mut quiet) = (new(), new());
+    quiet.count_topology(false);
+    for _ in 0..6 {
+        let (a, b) = (
+            counted.advance(&target, FRAME),
+            quiet.advance(&target, FRAME),
+        );
+        assert_eq!((a.euler_characteristic, a.components), (2, 1));
+        assert_eq!((b.euler_characteristic, b.components), (0, 0));
+        assert_eq!((a.substeps, a.volume), (b.substeps, b.volume));
+    }
+    assert_eq!(counted.mesh().positions, quiet.mesh().positions);
+}

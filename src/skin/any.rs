@@ -96,6 +96,9 @@ impl AnySkin {
     pub fn limit_substeps(&mut self, most: Option<u32>) {
         each!(self, s => s.limit_substeps(most))
     }
+    pub fn count_topology(&mut self, on: bool) {
+        each!(self, s => s.count_topology(on))
+    }
     pub fn seed(&mut self, target: &dyn Target) -> usize {
         each!(self, s => s.seed(target))
     }

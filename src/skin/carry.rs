@@ -333,7 +333,7 @@ impl<P: Potential> Skin<P> {
             Ok(()) => self.advance(target, duration),
             Err(stopped) => StepStats {
                 stopped: Some(stopped),
-                ..self.stats()
+                ..self.stats_with(self.count_topology)
             },
         }
     }
