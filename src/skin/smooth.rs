@@ -332,10 +332,10 @@ fn thin_weights<P: Potential>(
 }
 
 /// The least (`pick` = min) or greatest value over the cube of side 2·REACH + 1 around
-/// each active node ([`thin_weights`] takes the least; the greatest's sign is
-/// [`cube_reaches_outside`]'s) (REACH sweeps over the 27 nodes around, row by row): a cube reaches
+/// each active node (REACH sweeps over the 27 nodes around, row by row): a cube reaches
 /// REACH deep whatever the normal (six neighbours would reach only REACH/√3 along a
-/// diagonal).
+/// diagonal). [`thin_weights`] takes the least; the greatest's sign is
+/// [`cube_reaches_outside`]'s.
 fn cube_extreme<P: Potential>(
     grid: &SparseGrid<P>,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
