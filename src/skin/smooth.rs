@@ -136,34 +136,22 @@ impl<P: Potential> Skin<P> {
     /// mesh is left stale: only the settle calls this, and its restore meshes next
     /// (on 27 of the double dam break's 36 frames a mesh nothing read).
     pub(super) fn drop_crumbs(&mut self) {
-        drop_crumbs(&mut self.grid, &self.mesh, self.xf);
-    }
-}
-
-/// Removes the pieces of `mesh` under a voxel³ (a bump's tip the flow pinched off: no
-/// particle makes one so small), setting the inside nodes around their vertices just
-/// outside; true when there were some.
-fn drop_crumbs<P: Potential>(
-    grid: &mut SparseGrid<P>,
-    mesh: &crate::mesh::Mesh,
-    xf: crate::grid::IndexToWorld,
-) -> bool {
-    let crumb = f64::from(xf.dx).powi(3);
-    let mut dropped = false;
-    for p in vertices_of_pieces(mesh, |v| v.abs() < crumb) {
-        let cell = ((p - xf.origin) / xf.dx).floor().as_ivec3();
-        for n in 0..8 {
-            let ijk = cell + glam::IVec3::new(n / 4, n / 2 % 2, n % 2);
-            if let Some((id, offset)) = node(grid, ijk) {
-                let block = grid.block_mut(id);
-                if block.values[offset].to_f32() < 0.0 {
-                    block.values[offset] = P::from_f32(1e-3);
-                    dropped = true;
+        let xf = self.xf;
+        let crumb = f64::from(xf.dx).powi(3);
+        // The inside nodes around the crumbs' vertices set just outside.
+        for p in vertices_of_pieces(&self.mesh, |v| v.abs() < crumb) {
+            let cell = ((p - xf.origin) / xf.dx).floor().as_ivec3();
+            for n in 0..8 {
+                let ijk = cell + glam::IVec3::new(n / 4, n / 2 % 2, n % 2);
+                if let Some((id, offset)) = node(&self.grid, ijk) {
+                    let block = self.grid.block_mut(id);
+                    if block.values[offset].to_f32() < 0.0 {
+                        block.values[offset] = P::from_f32(1e-3);
+                    }
                 }
             }
         }
     }
-    dropped
 }
 
 /// The vertices of the pieces of `mesh` whose enclosed volume passes `keep`.
@@ -287,7 +275,7 @@ fn thin_weights<P: Potential>(
     grid: &SparseGrid<P>,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
 ) -> (Vec<[f32; BLOCK_NODES]>, Vec<[u8; BLOCK_NODES]>) {
-    let low = cube_extreme(grid, scratch, f32::min);
+    let low = cube_least(grid, scratch);
     let reached = cube_reaches_outside(grid);
     let mut weights = vec![[0.0f32; BLOCK_NODES]; grid.block_count()];
     let mut depths = vec![[0u8; BLOCK_NODES]; grid.block_count()];
@@ -331,19 +319,17 @@ fn thin_weights<P: Potential>(
     (weights, depths)
 }
 
-/// The least (`pick` = min) or greatest value over the cube of side 2·REACH + 1 around
-/// each active node (REACH sweeps over the 27 nodes around, row by row): a cube reaches
-/// REACH deep whatever the normal (six neighbours would reach only REACH/√3 along a
-/// diagonal). [`thin_weights`] takes the least; the greatest's sign is
-/// [`cube_reaches_outside`]'s.
-fn cube_extreme<P: Potential>(
+/// The least value over the cube of side 2·REACH + 1 around each active node (REACH
+/// sweeps over the 27 nodes around, row by row): a cube reaches REACH deep whatever the
+/// normal (six neighbours would reach only REACH/√3 along a diagonal). The greatest's
+/// sign is [`cube_reaches_outside`]'s.
+fn cube_least<P: Potential>(
     grid: &SparseGrid<P>,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
-    pick: impl Fn(f32, f32) -> f32 + Sync + Copy,
 ) -> SparseGrid<P> {
-    let mut extreme = grid.clone();
+    let mut least = grid.clone();
     for _ in 0..REACH {
-        band::each_halo(&extreme, scratch, |halo, block, out| {
+        band::each_halo(&least, scratch, |halo, block, out| {
             for (x, y, _) in block.active_rows() {
                 let start = Halo::index(x, y, -1);
                 let mut m: [f32; 10] = halo.values[start..start + 10]
@@ -353,23 +339,23 @@ fn cube_extreme<P: Potential>(
                     for dy in -1..=1 {
                         let start = Halo::index(x + dx, y + dy, -1);
                         for (m, &v) in m.iter_mut().zip(&halo.values[start..start + 10]) {
-                            *m = pick(*m, v);
+                            *m = m.min(v);
                         }
                     }
                 }
                 let start = node_offset(x, y, 0);
                 for z in 0..8 {
-                    out[start + z] = pick(pick(m[z], m[z + 1]), m[z + 2]);
+                    out[start + z] = m[z].min(m[z + 1]).min(m[z + 2]);
                 }
             }
         });
-        band::write_back(&mut extreme, scratch, false);
+        band::write_back(&mut least, scratch, false);
     }
-    extreme
+    least
 }
 
 /// Bit n of each block: a node at or above 0 lies in the cube of side 2·REACH + 1
-/// around its node n — the sign of [`cube_extreme`]'s greatest value, carried as bits: the
+/// around its node n — the sign of the greatest value over it (as [`cube_least`] takes the least), carried as bits: the
 /// same REACH steps over the 27 nodes around, through the active nodes alone (the
 /// others keep their own), a stored block's neighbours beyond the grid read as their
 /// tiles.
