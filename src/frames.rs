@@ -147,9 +147,11 @@ pub struct FrameInput<'t> {
     pub attributes: Option<AttributeSource>,
     /// Spray particles, near which the skin takes the target's surface each frame.
     pub spray: Spray,
+    /// The frame's particles, which the smoothed skin keeps under it.
+    pub cover: Cover,
 }
 
-pub use crate::skin::Spray;
+pub use crate::skin::{Cover, Spray};
 
 impl<'t> FrameInput<'t> {
     /// A target alone, followed by attraction, never seeded (a morph's end shape).
@@ -162,6 +164,7 @@ impl<'t> FrameInput<'t> {
             volume: None,
             attributes: None,
             spray: Spray::default(),
+            cover: Cover::default(),
         }
     }
 }
@@ -489,8 +492,8 @@ fn settle_and_write(
     let near = input
         .filter(|_| this.smooths)
         .map(|i| &*i.target as &dyn Target);
-    let spray = input.map(|i| (&*i.target as &dyn Target, &i.spray));
-    let level_set = skin.settle_holding(hold, near, spray);
+    let particles = input.map(|i| (&*i.target as &dyn Target, &i.spray, &i.cover));
+    let level_set = skin.settle_holding(hold, near, particles);
     if frame < writing.write_from {
         return Ok(level_set);
     }

@@ -9,6 +9,7 @@ mod advect;
 mod any;
 mod band;
 mod carry;
+mod cover;
 mod export;
 mod relax;
 mod seed;
@@ -35,6 +36,7 @@ use crate::stencil::{RowTerms, Stencil};
 use crate::target::{Backtracked, Target};
 
 pub use any::AnySkin;
+pub use cover::Cover;
 pub use speed::{AttractionSample, SpeedParams};
 pub use spray::Spray;
 

@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use activeskin::flow::{Flow, Rigid, Timing};
-use activeskin::frames::Spray;
+use activeskin::frames::{Cover, Spray};
 use activeskin::grid::Aabb;
 use activeskin::io::ply;
 use activeskin::particles::splash;
@@ -164,6 +164,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
                 volume: None,
                 attributes: None,
                 spray: Spray::default(),
+                cover: Cover::default(),
             })
         },
     )?;
@@ -211,6 +212,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
                 volume: None,
                 attributes: None,
                 spray: Spray::default(),
+                cover: Cover::default(),
             })
         },
     )?;

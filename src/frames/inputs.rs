@@ -167,6 +167,18 @@ pub struct ParticleInput {
     pub attributes: AttributeChoice,
 }
 
+/// The cover ([`ParticleInput::cover`]), in radii: where a particle's centre lies outside
+/// the skin as its cover starts and as it is whole, and the reach of the density's
+/// surface around it. Measured on both SPlisHSPlasH dam breaks and a pool at rest
+/// (`docs/benchmarks.md`, session 33): covering from a quarter radius inside the skin
+/// lowered the pool's top by a fifth of a radius (its square rims given back their
+/// volume, which the volume hold takes from the top); switched on whole at a threshold,
+/// the covered patches flickered; a reach of 1–2 radii left beads along a column's edges.
+const COVER_FROM: f32 = 0.25;
+const COVER_FULL: f32 = 1.25;
+const COVER_INNER: f32 = 2.5;
+const COVER_OUTER: f32 = 4.0;
+
 /// The largest radius or voxel size a particle run takes, in world units.
 pub(super) const MAX_LENGTH: f32 = 1e15;
 
@@ -178,6 +190,21 @@ impl ParticleInput {
     pub fn spray_reach(&self) -> (f32, f32) {
         let link = SPRAY_LINK * 2.0 * self.smoothing_length * self.radius;
         ((link - self.radius).max(0.5 * link), link)
+    }
+
+    /// How the smoothed skin keeps a frame's `points` under it ([`super::Cover`]): around a
+    /// particle whose centre lies outside the skin, from a quarter radius out on (wholly
+    /// from 1.25), the skin takes the density's surface where that lies farther out,
+    /// within 2.5 radii of it, blending back to its own by 4 radii.
+    pub fn cover(&self, points: Vec<Vec3>) -> super::Cover {
+        let r = self.radius;
+        super::Cover {
+            points,
+            from: COVER_FROM * r,
+            full: COVER_FULL * r,
+            inner: COVER_INNER * r,
+            outer: COVER_OUTER * r,
+        }
     }
 
     /// Particles of `radius` at the defaults: smoothing length

@@ -5,7 +5,7 @@
 //! the skin has none near, it is seeded (a simulation; not a morph). The `skin` command
 //! and the Python level-set stream run it alike.
 
-use super::{FrameError, FrameInput, Outputs, Spray, TargetRead};
+use super::{Cover, FrameError, FrameInput, Outputs, Spray, TargetRead};
 use crate::flow::{Flow, GridFlow, Timing};
 use crate::skin::{AnySkin, SkinParams};
 
@@ -89,6 +89,7 @@ impl<S: LevelSetSource> LevelSetRun<S> {
                 volume: None,
                 attributes: None,
                 spray: Spray::default(),
+                cover: Cover::default(),
             })
         };
         super::run(

@@ -118,6 +118,7 @@ impl ParticleRun<'_> {
         };
         let read_ahead = source.reads_ahead();
         let (inner, outer) = self.particles.spray_reach();
+        let covers = self.params.smoothing > 0.0;
         let mut frame_at = |frame: i64| -> Result<(ParticleFrame, f64), FrameError> {
             let Some((cloud, path)) = source.particles(frame)? else {
                 return Err(source.missing(frame));
@@ -139,6 +140,10 @@ impl ParticleRun<'_> {
                 noted = true;
             }
             let particles = std::mem::take(&mut read.particles);
+            // The positions stay with the frame for the smoothed skin's cover.
+            if covers {
+                read.particles.positions = particles.positions.clone();
+            }
             let count = held(&particles, reader);
             last = Some((frame, particles));
             Ok((read, count))
@@ -173,6 +178,7 @@ impl ParticleRun<'_> {
                     carried,
                     attributes,
                     spray,
+                    particles,
                     ..
                 } = read;
                 let density = Arc::new(density);
@@ -193,6 +199,7 @@ impl ParticleRun<'_> {
                         inner,
                         outer,
                     },
+                    cover: self.particles.cover(particles.positions),
                 })
             }),
         )

@@ -109,8 +109,8 @@ impl AnySkin {
         &mut self,
         volume: Option<f64>,
         near: Option<&dyn Target>,
-        spray: Option<(&dyn Target, &super::Spray)>,
+        particles: Option<(&dyn Target, &super::Spray, &super::Cover)>,
     ) -> GridData {
-        each!(self, s => s.settle_holding(volume, near, spray))
+        each!(self, s => s.settle_holding(volume, near, particles))
     }
 }

@@ -3,7 +3,7 @@
 
 use glam::IVec3;
 
-use super::{band, Skin, SkinError, Spray};
+use super::{band, Cover, Skin, SkinError, Spray};
 use crate::grid::{Potential, BLOCK_DIM, BLOCK_NODES};
 use crate::target::Target;
 use crate::volume::{GridClass, GridData, Tile, Transform, MASK_WORDS};
@@ -90,19 +90,24 @@ impl<P: Potential> Skin<P> {
     /// volume before the smoothing when not given) by the uniform normal offset that
     /// gives it back (§5.2's constraint met at once), meshed once, by the restore: for
     /// inputs that conserve their volume, such as an incompressible liquid's particles,
-    /// whose density's iso-surface does not. Around `spray`'s particles the skin takes
-    /// its target's surface ([`Spray`]): before the smoothing, which then spares the
-    /// drops as small pieces, and again after the offset, which could close the gap
-    /// between a drop and the liquid it left.
+    /// whose density's iso-surface does not. Given `particles`' target, spray and cover:
+    /// around the spray the skin takes its target's surface ([`Spray`]) before the
+    /// smoothing, which then spares the drops as small pieces, and again after the
+    /// offset, which could close the gap between a drop and the liquid it left; and,
+    /// smoothed, it first takes the target's surface around the particles it leaves
+    /// outside, where that lies farther out ([`Cover`]).
     pub fn settle_holding(
         &mut self,
         volume: Option<f64>,
         near: Option<&dyn Target>,
-        spray: Option<(&dyn Target, &Spray)>,
+        particles: Option<(&dyn Target, &Spray, &Cover)>,
     ) -> GridData {
         let smoothing = self.params.smoothing;
-        let take = |skin: &mut Self| spray.is_some_and(|(t, s)| skin.take_target_near(t, s));
-        if take(self) {
+        let take = |skin: &mut Self| particles.is_some_and(|(t, s, _)| skin.take_target_near(t, s));
+        let took = take(self);
+        let covered =
+            smoothing > 0.0 && particles.is_some_and(|(t, _, c)| self.cover_particles(t, c));
+        if took || covered {
             self.polygonize();
         }
         let volume = match smoothing > 0.0 {

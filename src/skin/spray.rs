@@ -31,12 +31,23 @@ impl<P: Potential> Skin<P> {
     /// Whether anything changed (the band's crossed cells are then stored, the mesh and
     /// the band's distance left to the caller).
     pub(super) fn take_target_near(&mut self, target: &dyn Target, spray: &Spray) -> bool {
-        let Spray {
-            points,
-            inner,
-            outer,
-        } = spray;
-        let (inner, outer) = (*inner, *outer);
+        let reach = (spray.inner, spray.outer);
+        self.take_target_around(target, &spray.points, None, reach, false)
+    }
+
+    /// Within `inner` of any of `points` the potential becomes `target`'s distance
+    /// estimate (only where that lies farther out when `outward_only`); out to `outer` it
+    /// blends smoothly back to the skin's; each point's weight scaled by its share when
+    /// `shares` are given. Whether anything changed (the band's crossed cells are then
+    /// stored, the mesh and the band's distance left to the caller).
+    pub(super) fn take_target_around(
+        &mut self,
+        target: &dyn Target,
+        points: &[Vec3],
+        shares: Option<&[f32]>,
+        (inner, outer): (f32, f32),
+        outward_only: bool,
+    ) -> bool {
         if points.is_empty() {
             return false;
         }
@@ -44,11 +55,13 @@ impl<P: Potential> Skin<P> {
         let xf = self.xf;
         let reach = (outer / dx).ceil() as i32;
         let blend = (outer - inner).max(f32::MIN_POSITIVE);
-        // Each node's weight (the greatest any spray particle gives it) and the target's
+        // Each node's weight (the greatest any point gives it) and the target's
         // distance there, in parallel; the same whatever the threads.
         let mut nodes: Vec<(IVec3, f32)> = points
             .par_iter()
-            .flat_map_iter(|&p| {
+            .enumerate()
+            .flat_map_iter(|(i, &p)| {
+                let share = shares.map_or(1.0, |s| s[i]);
                 let c = ((p - xf.origin) / dx).round().as_ivec3();
                 let side = 2 * reach + 1;
                 (0..side * side * side).filter_map(move |n| {
@@ -56,7 +69,7 @@ impl<P: Potential> Skin<P> {
                     let ijk = c + e - IVec3::splat(reach);
                     let d = (xf.apply(ijk.as_vec3()) - p).length();
                     let t = ((outer - d) / blend).clamp(0.0, 1.0);
-                    (t > 0.0).then_some((ijk, t * t * (3.0 - 2.0 * t)))
+                    (t > 0.0).then_some((ijk, share * t * t * (3.0 - 2.0 * t)))
                 })
             })
             .collect();
@@ -79,7 +92,12 @@ impl<P: Potential> Skin<P> {
             let v = &mut self.grid.blocks_mut()[id.0 as usize].values
                 [node_offset(local.x, local.y, local.z)];
             let f = v.to_f32();
-            let new = f + t * (goal - f);
+            // Outward is down: the potential is negative inside.
+            let toward = match outward_only {
+                true => (goal - f).min(0.0),
+                false => goal - f,
+            };
+            let new = f + t * toward;
             if new != f {
                 *v = P::from_f32(new);
                 // Sorted by node, a block's nodes mostly follow one another; repeats are
