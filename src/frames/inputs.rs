@@ -170,10 +170,11 @@ pub struct ParticleInput {
 /// The cover ([`ParticleInput::cover`]), in radii: where a particle's centre lies outside
 /// the skin as its cover starts and as it is whole, and the reach of the density's
 /// surface around it. Measured on both SPlisHSPlasH dam breaks and a pool at rest
-/// (`docs/benchmarks.md`, session 33): covering from a quarter radius inside the skin
-/// lowered the pool's top by a fifth of a radius (its square rims given back their
-/// volume, which the volume hold takes from the top); switched on whole at a threshold,
-/// the covered patches flickered; a reach of 1–2 radii left beads along a column's edges.
+/// (`docs/benchmarks.md`, session 33): covering from half a radius inside the skin
+/// lowered the pool's top by a fifth of a radius (its square rims given back volume,
+/// which the volume hold takes from the top), from half a radius outside left 0.8 % of
+/// the double dam break's particles outside; switched on whole at a threshold, the
+/// covered patches flickered; a reach of 1–2 radii left beads along a column's edges.
 const COVER_FROM: f32 = 0.25;
 const COVER_FULL: f32 = 1.25;
 const COVER_INNER: f32 = 2.5;
