@@ -40,6 +40,13 @@ pub use cover::Cover;
 pub use speed::{AttractionSample, SpeedParams};
 pub use spray::Spray;
 
+/// 0 below 0, 1 above 1, smooth between (the smoothing's weights, the blends of spray
+/// and cover).
+fn smoothstep(t: f32) -> f32 {
+    let t = t.clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
 /// Largest displacement by the flow in one sub-step, in voxels (the halo is one node).
 const ADVECTION_CFL: f32 = 0.9;
 

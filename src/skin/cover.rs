@@ -10,7 +10,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::Skin;
+use super::{smoothstep, Skin};
 use crate::grid::Potential;
 use crate::target::Target;
 
@@ -56,7 +56,7 @@ impl<P: Potential> Skin<P> {
             .filter_map(|&p| {
                 let out = self.grid.trilinear((p - xf.origin) / xf.dx) * scale;
                 let s = ((out - from) / (full - from)).clamp(0.0, 1.0);
-                (s > 0.0).then_some((p, s * s * (3.0 - 2.0 * s)))
+                (s > 0.0).then_some((p, smoothstep(s)))
             })
             .unzip()
     }

@@ -24,7 +24,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::band;
-use super::Skin;
+use super::{smoothstep, Skin};
 use crate::grid::{
     mask_offsets, node_offset, offset_coords, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES,
 };
@@ -355,8 +355,8 @@ fn cube_least<P: Potential>(
 }
 
 /// Bit n of each block: a node at or above 0 lies in the cube of side 2·REACH + 1
-/// around its node n — the sign of the greatest value over it (as [`cube_least`] takes the least), carried as bits: the
-/// same REACH steps over the 27 nodes around, through the active nodes alone (the
+/// around its node n — the sign of the greatest value over it (as [`cube_least`] takes
+/// the least), carried as bits: the same REACH steps over the 27 nodes around, through the active nodes alone (the
 /// others keep their own), a stored block's neighbours beyond the grid read as their
 /// tiles.
 fn cube_reaches_outside<P: Potential>(grid: &SparseGrid<P>) -> Vec<[u64; 8]> {
@@ -650,12 +650,6 @@ fn box_along<P: Potential>(
             }
         }
     });
-}
-
-/// 0 below 0, 1 above 1, smooth between.
-fn smoothstep(t: f32) -> f32 {
-    let t = t.clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
 }
 
 /// One explicit step of weighted mean-curvature flow over the active nodes:
