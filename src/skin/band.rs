@@ -280,13 +280,23 @@ const BAND_CORNER: f32 = 0.99;
 /// The blocks not stored that hold a corner of a cell the skin crosses next to a stored
 /// block: the polygonizer only reads stored blocks' cells.
 pub(crate) fn unstored_crossed<P: Potential>(grid: &SparseGrid<P>) -> Vec<IVec3> {
+    unstored_crossed_among(grid, |_| true)
+}
+
+/// [`unstored_crossed`] from the blocks `among` says: where the skin changed, the rest of
+/// the band's crossed cells stored already.
+pub(crate) fn unstored_crossed_among<P: Potential>(
+    grid: &SparseGrid<P>,
+    among: impl Fn(IVec3) -> bool + Sync,
+) -> Vec<IVec3> {
     let mut missing: Vec<IVec3> = grid
         .blocks()
         .par_iter()
         .map_init(Box::<Halo>::default, |halo, block| {
             let mut out = Vec::new();
             // A block whose 26 neighbours are stored has no cell reading an unstored one.
-            if AROUND.iter().all(|&d| grid.find(block.coord + d).is_some()) {
+            let stored_around = || AROUND.iter().all(|&d| grid.find(block.coord + d).is_some());
+            if !among(block.coord) || stored_around() {
                 return out;
             }
             halo.gather(grid, block);

@@ -180,20 +180,25 @@ impl<P: Potential> Skin<P> {
     /// blocks `changed`: as at a start, every crossed cell stored, its corners in the band
     /// (the corners clamped in those blocks and the blocks around them).
     pub(super) fn store_crossed_cells(&mut self, changed: &[IVec3]) {
+        let near: HashSet<IVec3> = changed
+            .iter()
+            .flat_map(|&c| AROUND.iter().map(move |&d| c + d))
+            .collect();
+        // Only the blocks changed, and those stored for them, can cross into unstored
+        // ones: the rest of the band had its crossed cells stored already.
+        let mut reached = near.clone();
         for _ in 0..4 {
-            let missing = super::band::unstored_crossed(&self.grid);
+            let among = |c: IVec3| reached.contains(&c);
+            let missing = super::band::unstored_crossed_among(&self.grid, among);
             if missing.is_empty() {
                 break;
             }
             for c in missing {
                 self.grid.touch(c);
+                reached.extend(AROUND.iter().map(|&d| c + d));
             }
         }
         let w = self.params.band_width;
-        let near: HashSet<IVec3> = changed
-            .iter()
-            .flat_map(|&c| AROUND.iter().map(move |&d| c + d))
-            .collect();
         let within = |c: IVec3| near.contains(&c);
         super::band::clamp_at_crossings_in(&mut self.grid, w, &mut self.rates, within);
         crate::grid::tube::upkeep(&mut self.grid);
