@@ -660,6 +660,10 @@ impl<P: Potential> Skin<P> {
         let xf = self.xf;
         let crossings = &self.crossings;
         let crossing_distance = &self.crossing_distance;
+        let remade_beyond = match params.renormalize_sweeps {
+            0 => f32::INFINITY,
+            _ => speed::REMADE_BEYOND_VOXELS / params.band_width,
+        };
         self.rates.resize(grid.block_count(), [0.0; BLOCK_NODES]);
         self.rates
             .par_iter_mut()
@@ -685,6 +689,7 @@ impl<P: Potential> Skin<P> {
                         local: l,
                         xf,
                         band_width: params.band_width,
+                        remade_beyond,
                     };
                     let stencil = Stencil::from_halo(halo, l.x, l.y, l.z);
                     match speed::attraction(
@@ -696,6 +701,8 @@ impl<P: Potential> Skin<P> {
                     ) {
                         speed::Attraction::Known(d) => distance[offset] = d,
                         speed::Attraction::At(p) => queries.push((offset, p)),
+                        // Tension and preservation alone move it (a guess the sweep replaces).
+                        speed::Attraction::Remade => distance[offset] = 0.0,
                     }
                 }
                 for &(offset, p) in queries.iter() {

@@ -102,7 +102,18 @@ pub(crate) struct NodeContext {
     pub xf: IndexToWorld,
     /// Half-width w of the tube, voxels.
     pub band_width: f32,
+    /// |f| from which the step's renormalisation remakes a node from the nodes nearer the
+    /// skin ([`REMADE_BEYOND_VOXELS`] / w; infinite without renormalisation).
+    pub remade_beyond: f32,
 }
+
+/// How far from the skin (voxels) a node's attraction is read when the renormalisation
+/// follows each step. Beyond, the sweep remakes the node from the nodes nearer the skin
+/// (the upwind ones), whose motion is the skin's: what the attraction gave it there would
+/// only reach the layer outside it, a step late. Reading the target there was about half
+/// of its evaluations (a projection each); two voxels leave the dam breaks' look the same
+/// to the second digit (bumps, particles outside) for 3 % less CPU time.
+pub(crate) const REMADE_BEYOND_VOXELS: f32 = 2.0;
 
 /// Where the attraction term reads the target for one node (§4.3).
 pub(crate) enum Attraction {
@@ -110,6 +121,8 @@ pub(crate) enum Attraction {
     Known(f32),
     /// The target's distance at this world point.
     At(Vec3),
+    /// Not read: the step's renormalisation remakes the node.
+    Remade,
 }
 
 /// Where the target's signed distance at the node's closest skin point X̃ is read (§4.3):
@@ -146,6 +159,9 @@ pub(crate) fn attraction(
     }
     if n > 0 {
         return Attraction::Known(sum / n as f32);
+    }
+    if f.abs() >= node.remade_beyond {
+        return Attraction::Remade;
     }
     // No incident crossing: the node's projection onto the skin, X − f ∇f/|∇f|². The
     // skin is within the band (w voxels, f = ±1) of any band node: where the gradient
