@@ -364,23 +364,24 @@ impl<P: Potential> Skin<P> {
     pub(super) fn keep_volume(&mut self, volume: f64) {
         // The shift is a fraction of a voxel and the band reaches w voxels past the skin:
         // the tube is kept until the attraction's upkeep.
-        if self.shift_to_volume(volume) {
+        if self.shift_to_volume(volume) != 0.0 {
             self.polygonize();
         }
     }
 
     /// [`Skin::keep_volume`]'s offset applied to the values alone (the mesh, area and
-    /// volume left as they were): whether it moved anything.
-    pub(super) fn shift_to_volume(&mut self, volume: f64) -> bool {
+    /// volume left as they were): how far it moved the skin outward, in voxels (0 when
+    /// nothing moved).
+    pub(super) fn shift_to_volume(&mut self, volume: f64) -> f32 {
         let (dx, w) = (self.params.dx, self.params.band_width);
         if volume <= 0.0 || self.area <= 0.0 {
-            return false;
+            return 0.0;
         }
         // Outward by δ: φ − δ, with f = φ / (wΔx).
         let delta = ((volume - self.volume) / self.area) as f32;
         let shift = delta / (w * dx);
         if shift.abs() < 1e-6 {
-            return false;
+            return 0.0;
         }
         self.grid.blocks_mut().par_iter_mut().for_each(|block| {
             for v in block.values.iter_mut() {
@@ -390,6 +391,6 @@ impl<P: Potential> Skin<P> {
                 }
             }
         });
-        true
+        delta / dx
     }
 }
