@@ -613,39 +613,35 @@ fn box_along<P: Potential>(
                     }
                 };
                 // Most lines hold no move (the flow moves a shell of about three nodes
-                // across a band of blocks): their averages are 0 already.
-                let moved = |b: usize| (0..D).any(|t| block_sums(b)[at(t)] != [0.0; 3]);
-                if !run.iter().any(|&b| moved(b)) {
-                    continue;
-                }
-                for (k, &b) in run.iter().enumerate() {
-                    let values = block_sums(b);
-                    for t in 0..D {
-                        let (i, s) = (k * D + t, values[at(t)]);
-                        let q = s.map(|x| (f64::from(x) * FIXED) as i64);
-                        prefix[i + 1] = [0, 1, 2].map(|c| prefix[i][c] + q[c]);
-                    }
-                }
+                // across a band of blocks): their averages are 0 already, as they are
+                // beyond `reach` of the line's first and last moves.
+                let value = |i: usize| block_sums(run[i / D])[at(i % D)];
                 let len = D * run.len();
-                for (k, &b) in run.iter().enumerate() {
+                let Some(first) = (0..len).find(|&i| value(i) != [0.0; 3]) else {
+                    continue;
+                };
+                let last = (first..len)
+                    .rfind(|&i| value(i) != [0.0; 3])
+                    .unwrap_or(first);
+                // prefix[i + 1] − prefix[first] sums the line's nodes first..=i.
+                for i in first..=last {
+                    let q = value(i).map(|x| (f64::from(x) * FIXED) as i64);
+                    prefix[i + 1 - first] = [0, 1, 2].map(|c| prefix[i - first][c] + q[c]);
+                }
+                let sum_to = |i: usize| prefix[i.clamp(first, last + 1) - first];
+                for i in first.saturating_sub(reach)..(last + reach + 1).min(len) {
+                    let (b, t) = (run[i / D], i % D);
                     let block = &grid.blocks()[b];
-                    let out = block_sums(b);
-                    for t in 0..D {
-                        let i = k * D + t;
-                        let (low, high) = (
-                            &prefix[i.saturating_sub(reach)],
-                            &prefix[(i + reach + 1).min(len)],
-                        );
-                        // The average spreads over the band only: the blocks stored beyond
-                        // it depend on where the skin lies on the grid, and so would it.
-                        let o = at(t);
-                        let in_band = block.active[o / 64] >> (o % 64) & 1 == 1
-                            && block.values[o].to_f32().abs() < 1.0;
-                        out[o] = match in_band {
-                            true => [0, 1, 2].map(|c| ((high[c] - low[c]) as f64 * scale) as f32),
-                            false => [0.0; 3],
-                        };
-                    }
+                    let (low, high) = (sum_to(i.saturating_sub(reach)), sum_to(i + reach + 1));
+                    // The average spreads over the band only: the blocks stored beyond it
+                    // depend on where the skin lies on the grid, and so would it.
+                    let o = at(t);
+                    let in_band = block.active[o / 64] >> (o % 64) & 1 == 1
+                        && block.values[o].to_f32().abs() < 1.0;
+                    block_sums(b)[o] = match in_band {
+                        true => [0, 1, 2].map(|c| ((high[c] - low[c]) as f64 * scale) as f32),
+                        false => [0.0; 3],
+                    };
                 }
             }
         }
