@@ -9,8 +9,8 @@ use crate::target::Target;
 use crate::volume::{GridClass, GridData, Tile, Transform, MASK_WORDS};
 
 /// The volume's offset (voxels) from which the settle fits the band to the skin again:
-/// the double dam break's settles offset it 0.07 voxel at most (a refit took 8 % of its
-/// time).
+/// the double dam break's settles offset it 0.07 voxel at most (that re-fit and its mesh
+/// took about 4 % of its CPU).
 const REFIT_OFFSET: f32 = 0.25;
 
 impl<P: Potential> Skin<P> {
