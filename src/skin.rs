@@ -154,16 +154,22 @@ impl Physics {
 
     /// [`Physics::params`] for a skin of particles of `radius` (world units): smoothed
     /// by one unit when no smoothing is given, the unit in radii² so that the particles'
-    /// bumps are smoothed alike on every voxel size.
+    /// bumps are smoothed alike on every voxel size, and attracted within
+    /// [`speed::PARTICLE_REACH_RADII`].
     pub fn particle_params(&self, radius: f32, default_dx: f32) -> SkinParams {
         let dx = self.voxel_size.unwrap_or(default_dx);
         let radii = radius / dx;
+        let params = self.params(default_dx);
         SkinParams {
             smoothing: self.smoothing.unwrap_or(DEFAULT_PARTICLE_SMOOTHING)
                 * SMOOTHING_UNIT
                 * radii
                 * radii,
-            ..self.params(default_dx)
+            speed: SpeedParams {
+                reach: speed::PARTICLE_REACH_RADII * radius,
+                ..params.speed
+            },
+            ..params
         }
     }
 }

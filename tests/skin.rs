@@ -150,6 +150,36 @@ fn tension_alone_shrinks_a_sphere() {
     );
 }
 
+/// A skin farther from its target than the attraction's reach closes the gap at α × the
+/// reach, in the sub-steps that speed needs: one a frame for a reach of 2.5 voxels at
+/// the default α (particles' reach at cell = r), where the whole distance takes two.
+#[test]
+fn the_attraction_reads_its_target_within_its_reach() {
+    let (start, goal) = (0.3f32, 0.3 + 6.0 * DX);
+    let run = |reach: f32| {
+        let alpha = SpeedParams::default().alpha;
+        let mut p = params(alpha, 0.0);
+        p.speed.reach = reach;
+        let mut skin: Skin<f32> = Skin::new(&sphere(start), p);
+        let before = radius_from_volume(skin.stats().volume);
+        let stats = skin.advance(&sphere(goal), FRAME);
+        let grown = (radius_from_volume(stats.volume) - before) / f64::from(DX);
+        (stats.substeps, grown, f64::from(alpha * reach / DX) * FRAME)
+    };
+    let (substeps, grown, expected) = run(2.5 * DX);
+    assert_eq!(substeps, 1, "grown {grown} voxels");
+    assert!(
+        (grown - expected).abs() < 0.1,
+        "grown {grown} voxels against α × reach × frame = {expected}"
+    );
+    let (substeps, grown_free, _) = run(f32::INFINITY);
+    assert!(substeps >= 2, "{substeps} sub-steps");
+    assert!(
+        grown_free > 2.0 * grown,
+        "{grown_free} against {grown} voxels"
+    );
+}
+
 #[test]
 fn tension_equilibrium_matches_alpha_r_beta() {
     let (alpha, big_r, beta) = (2.0f64, 0.5f64, 0.0225f64);

@@ -32,7 +32,19 @@ pub struct SpeedParams {
     pub volume_gain: f32,
     /// Where the attraction reads its target (§4.3).
     pub attraction: AttractionSample,
+    /// The farthest target distance the attraction reads (world units): a skin farther
+    /// from its target closes the gap at α × this. Unbounded by default; particles bound
+    /// it ([`PARTICLE_REACH_RADII`]).
+    pub reach: f32,
 }
+
+/// The attraction's reach on particles, in particle radii: a density's first-order
+/// distance (iso − G)/|∇G| is a guess where its kernel (4 radii) fades, and is capped at
+/// the kernel's radius; capped here instead, the fastest attraction, α × 2.5 r, lets a
+/// sub-step span 1/20 s at cell = r (§4.8's CFL bound with the default α and safety),
+/// so a frame at 24 fps takes one sub-step where it took two. On the SPlisHSPlasH dam
+/// breaks that is 0.9× the CPU for the same look (docs/benchmarks.md, 2026-12-07).
+pub const PARTICLE_REACH_RADII: f32 = 2.5;
 
 /// Default attraction rate α, 1/s.
 pub const DEFAULT_ALPHA: f32 = 4.0;
@@ -66,6 +78,7 @@ impl Default for SpeedParams {
             area_gain: 0.0,
             volume_gain: 0.0,
             attraction: AttractionSample::Crossings,
+            reach: f32::INFINITY,
         }
     }
 }
@@ -206,6 +219,7 @@ pub(crate) fn normal_speed(
 ) -> (f32, f32) {
     let kappa = curvature_index.clamp(-MAX_CURVATURE_INDEX, MAX_CURVATURE_INDEX) / dx;
     // G − iso = −(signed distance): inside the target the skin inflates.
-    let advective = params.alpha * (-target_distance) + global.preservation;
+    let distance = target_distance.clamp(-params.reach, params.reach);
+    let advective = params.alpha * (-distance) + global.preservation;
     (advective - params.beta * kappa, advective)
 }
