@@ -72,7 +72,7 @@ pub(crate) fn renormalizing(
 /// straddle both sides, fail the slope and take the exact distance checkLevelSet's
 /// eikonal test wants there. The exact distances are only computed where needed: the
 /// export took 40–65 ms a frame on the dam break for all of them, 15 ms now.
-const KEPT_WITHIN: f32 = 0.1;
+pub(super) const KEPT_WITHIN: f32 = 0.1;
 
 /// |∇f| at local node `l` by central differences (f units per voxel).
 fn slope(halo: &Halo, l: IVec3) -> f32 {
