@@ -35,6 +35,8 @@ pub enum Field {
     BandWidth,
     /// Time-step safety factor (library only).
     Safety,
+    /// The farthest target distance the attraction reads (library only).
+    Reach,
     /// Velocity units' scale.
     VelocityScale,
     /// Which frames' velocities carry a frame.
@@ -85,7 +87,7 @@ pub enum Field {
 
 impl Field {
     /// Every field, for looking one up by name.
-    pub const ALL: [Field; 36] = [
+    pub const ALL: [Field; 37] = [
         Field::Radius,
         Field::SmoothingLength,
         Field::Iso,
@@ -99,6 +101,7 @@ impl Field {
         Field::Smooth,
         Field::BandWidth,
         Field::Safety,
+        Field::Reach,
         Field::VelocityScale,
         Field::VelocityTime,
         Field::Velocity,
@@ -141,6 +144,7 @@ impl Field {
             Field::Smooth => "smooth",
             Field::BandWidth => "band_width",
             Field::Safety => "safety",
+            Field::Reach => "reach",
             Field::VelocityScale => "velocity_scale",
             Field::VelocityTime => "velocity_time",
             Field::Velocity => "velocity",

@@ -177,7 +177,7 @@ impl Physics {
 impl SkinParams {
     /// Every parameter in its range: rates and gains finite and non-negative (NaN
     /// refused), the voxel size finite and positive, the band at least the 2 voxels the
-    /// stencils read, the safety factor in (0, 1].
+    /// stencils read, the safety factor in (0, 1], the attraction's reach positive.
     pub fn check(&self) -> Result<(), SkinError> {
         let s = &self.speed;
         let out = |name, value, must| Err(SkinError::Parameter { name, value, must });
@@ -200,6 +200,10 @@ impl SkinParams {
         }
         if !(self.safety > 0.0 && self.safety <= 1.0) {
             return out(Field::Safety, self.safety, "in (0, 1]");
+        }
+        // Infinite allowed (no bound); the attraction clamps distances by it.
+        if !(s.reach > 0.0) {
+            return out(Field::Reach, s.reach, "a positive number or infinity");
         }
         Ok(())
     }

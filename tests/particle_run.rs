@@ -226,6 +226,14 @@ fn the_library_checks_parameters_and_warms_up() {
         },
         "safety",
     );
+    for reach in [0.0, -1.0, f32::NAN] {
+        let mut p = good;
+        p.speed.reach = reach;
+        refused(p, "reach");
+    }
+    let mut p = good;
+    p.speed.reach = f32::INFINITY;
+    assert!(p.check().is_ok());
     let message = SkinParams { dx: -1.0, ..good }
         .check()
         .unwrap_err()

@@ -187,8 +187,8 @@ impl<P: Potential> Skin<P> {
     /// is made a distance again — next to the skin from its cells where the slope is not
     /// a distance's, and beyond by upwind sweeps across the band — for the volume's
     /// offset, a uniform move of a distance. The export re-distances every node next to
-    /// the skin exactly (`Skin::settle_holding`): doing it here too cost 5 % of the
-    /// double dam break's CPU, for seven nodes in eight whose slope the flow had left
+    /// the skin exactly (`Skin::settle_holding`): doing it here too cost about 4 % of
+    /// the double dam break's CPU, for seven nodes in eight whose slope the flow had left
     /// within [`band::KEPT_WITHIN`] of a distance's.
     pub(super) fn refit_band(&mut self) {
         crate::grid::tube::upkeep(&mut self.grid);

@@ -43,7 +43,7 @@ pub struct SpeedParams {
 /// the kernel's radius; capped here instead, the fastest attraction, α × 2.5 r, lets a
 /// sub-step span 1/20 s at cell = r (§4.8's CFL bound with the default α and safety),
 /// so a frame at 24 fps takes one sub-step where it took two. On the SPlisHSPlasH dam
-/// breaks that is 0.9× the CPU for the same look (docs/benchmarks.md, 2026-12-07).
+/// breaks that is 0.92× the CPU for bumps 1 % higher (docs/benchmarks.md, 2026-12-07).
 pub const PARTICLE_REACH_RADII: f32 = 2.5;
 
 /// Default attraction rate α, 1/s.
