@@ -202,7 +202,7 @@ impl SkinParams {
             return out(Field::Safety, self.safety, "in (0, 1]");
         }
         // Infinite allowed (no bound); the attraction clamps distances by it.
-        if !(s.reach > 0.0) {
+        if s.reach.is_nan() || s.reach <= 0.0 {
             return out(Field::Reach, s.reach, "a positive number or infinity");
         }
         Ok(())
