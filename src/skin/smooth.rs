@@ -26,7 +26,8 @@ use rayon::prelude::*;
 use super::band;
 use super::{smoothstep, Skin};
 use crate::grid::{
-    mask_offsets, node_offset, offset_coords, Halo, Potential, SparseGrid, BLOCK_DIM, BLOCK_NODES,
+    mask_offsets, mask_rows, node_offset, offset_coords, Halo, Potential, SparseGrid, BLOCK_DIM,
+    BLOCK_NODES,
 };
 use crate::target::Target;
 
@@ -104,12 +105,13 @@ impl<P: Potential> Skin<P> {
         spare_small_pieces(&self.grid, &self.mesh, self.xf, &mut weights);
         let before: Option<Vec<[P; BLOCK_NODES]>> =
             give_back.then(|| self.grid.blocks().iter().map(|b| b.values).collect());
+        let movable = movable(&weights);
         let mut left = time / (STEP / 6.0);
         while left > 1e-3 {
             let step = STEP * left.min(1.0);
             curvature_step(
                 &mut self.grid,
-                (&weights, limit.as_ref()),
+                (&weights, &movable, limit.as_ref()),
                 step,
                 &mut self.rates,
             );
@@ -651,47 +653,50 @@ fn box_along<P: Potential>(
     });
 }
 
-/// One explicit step of weighted mean-curvature flow over the active nodes:
+/// The nodes each block's flow may move (a weight above 0: next to the skin and not
+/// spared; only these ever change), as masks like the blocks' active ones.
+fn movable(weights: &[[f32; BLOCK_NODES]]) -> Vec<[u64; 8]> {
+    weights
+        .par_iter()
+        .map(|w| {
+            let mut mask = [0u64; 8];
+            for (o, &w) in w.iter().enumerate() {
+                mask[o / 64] |= u64::from(w > 0.0) << (o % 64);
+            }
+            mask
+        })
+        .collect()
+}
+
+/// One explicit step of weighted mean-curvature flow over the `movable` nodes:
 /// f += step/6 · weight · |∇f|κ, the Laplacian less its part along the normal, so that
 /// a flat sheet keeps its thickness (the Laplacian would diffuse its two sides into each
 /// other) and the band's clamped ends do not move the skin; inward moves fade where the
-/// skin lies deeper in its target than the `limit` allows.
+/// skin lies deeper in its target than the `limit` allows. Only the blocks and rows with
+/// a movable node are gathered, computed and written, not every active node tested each
+/// step: the flow 12 % faster on the double dam break, where it takes 9 % of the CPU.
+/// (A compact list of the movable nodes, each with its stencil's 18 neighbours' indices,
+/// was barely faster: 72 bytes a node read each step.)
 fn curvature_step<P: Potential>(
     grid: &mut SparseGrid<P>,
-    (weights, limit): (&[[f32; BLOCK_NODES]], Option<&Limit>),
+    (weights, movable, limit): (&[[f32; BLOCK_NODES]], &[[u64; 8]], Option<&Limit>),
     step: f32,
     scratch: &mut Vec<[f32; BLOCK_NODES]>,
 ) {
     scratch.resize(grid.block_count(), [0.0; BLOCK_NODES]);
-    let mut moving = vec![false; grid.block_count()];
     scratch
         .par_iter_mut()
-        .zip(moving.par_iter_mut())
         .zip(grid.blocks().par_iter().zip(weights))
+        .zip(movable)
         .enumerate()
+        .filter(|(_, (_, movable))| **movable != [0; 8])
         .for_each_init(
             Box::<Halo>::default,
-            |halo, (b, ((out, moving), (block, w)))| {
-                // Most of the band does not move (too far from the skin, or spared): a block
-                // without a node that moves is left as it is, a row is copied, their stencils
-                // not computed.
-                let moves = |offset: usize| {
-                    w[offset] > 0.0 && block.values[offset].to_f32().abs() < NEXT_TO_SKIN
-                };
-                *moving = mask_offsets(block.active).any(moves);
-                if !*moving {
-                    return;
-                }
+            |halo, (b, ((out, (block, w)), movable))| {
                 halo.gather(grid, block);
                 let distances = limit.map(|l| &l.distances[b]);
-                for (x, y, _) in block.active_rows() {
+                for (x, y, _) in mask_rows(*movable) {
                     let start = node_offset(x, y, 0);
-                    if !(start..start + 8).any(moves) {
-                        for z in 0..8 {
-                            out[start + z] = halo.at(x, y, z as i32);
-                        }
-                        continue;
-                    }
                     let moved = tangential_laplacian_row(halo, x, y);
                     for z in 0..8 {
                         let f = halo.at(x, y, z as i32);
@@ -713,10 +718,10 @@ fn curvature_step<P: Potential>(
         );
     let blocks = grid.blocks_mut().par_iter_mut().zip(scratch.par_iter());
     blocks
-        .zip(moving.par_iter())
-        .filter(|(_, &moving)| moving)
-        .for_each(|((block, values), _)| {
-            for offset in mask_offsets(block.active) {
+        .zip(movable)
+        .filter(|(_, movable)| **movable != [0; 8])
+        .for_each(|((block, values), movable)| {
+            for offset in mask_offsets(*movable) {
                 block.values[offset] = P::from_f32(values[offset]);
             }
         });
