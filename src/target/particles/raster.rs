@@ -598,6 +598,18 @@ impl DensityGrid {
         at: impl Fn(&Block, usize) -> [f32; N],
     ) -> [f32; N] {
         let u = p / self.dx;
+        self.interpolate_near(u, self.block(floor_ivec3(u) >> 3), at)
+    }
+
+    /// [`DensityGrid::interpolate`] at `u` (node units), `home` the block `u` lies in
+    /// (looked up by the caller, who read it too).
+    #[inline]
+    fn interpolate_near<const N: usize>(
+        &self,
+        u: Vec3,
+        home: Option<&Block>,
+        at: impl Fn(&Block, usize) -> [f32; N],
+    ) -> [f32; N] {
         let base = floor_ivec3(u);
         let t = u - base.as_vec3();
         let mut sum = [0.0f32; N];
@@ -608,8 +620,8 @@ impl DensityGrid {
         };
         let local = base & (DIM - 1);
         if local.cmplt(IVec3::splat(DIM - 1)).all() {
-            // All eight corners in one block: one lookup.
-            let Some(block) = self.block(base >> 3) else {
+            // All eight corners in one block: `home`.
+            let Some(block) = home else {
                 return sum;
             };
             for corner in 0..8 {
@@ -622,6 +634,7 @@ impl DensityGrid {
             let first = base >> 3;
             let apart = IVec3::select(local.cmpeq(IVec3::splat(DIM - 1)), IVec3::ONE, IVec3::ZERO);
             let mut blocks: [Option<Option<&Block>>; 8] = [None; 8];
+            blocks[0] = Some(home);
             for corner in 0..8 {
                 let c = IVec3::new(corner >> 2, (corner >> 1) & 1, corner & 1);
                 let b: IVec3 = c * apart;
@@ -840,10 +853,16 @@ impl Target for DensityGrid {
     /// around, the distance to the neighbourhood's edge bounds it instead: a seed or a
     /// start skin then skips those blocks outright.
     fn distance(&self, p: Vec3) -> f32 {
-        if let Some(bound) = self.bound_by_blocks(p) {
+        // The block `p` lies in, looked up once for the bound and the interpolation (a
+        // skin's attraction reads the distance at its mesh's vertices every sub-step).
+        let u = p / self.dx;
+        let c = floor_ivec3(u) >> 3;
+        let home = self.block(c);
+        if let Some(bound) = self.bound_by_block(c, u, home) {
             return bound;
         }
-        let (g, grad) = self.density_and_gradient(p);
+        let [g, gx, gy, gz] = self.interpolate_near(u, home, |b, o| b.field_at(o));
+        let grad = Vec3::new(gx, gy, gz);
         let value = self.iso - g;
         let norm = grad.length().max(value.abs() / self.h).max(1e-12);
         (value / norm).clamp(-self.h, self.h)
@@ -851,9 +870,12 @@ impl Target for DensityGrid {
     /// The density alone against the iso: [`Target::distance`]'s sign without its
     /// gradient.
     fn inside(&self, p: Vec3) -> bool {
-        match self.bound_by_blocks(p) {
+        let u = p / self.dx;
+        let c = floor_ivec3(u) >> 3;
+        let home = self.block(c);
+        match self.bound_by_block(c, u, home) {
             Some(bound) => bound < 0.0,
-            None => self.interpolate(p, |b, o| [b.g(o)])[0] > self.iso,
+            None => self.interpolate_near(u, home, |b, o| [b.g(o)])[0] > self.iso,
         }
     }
     /// A block of a skin on this grid's own nodes and blocks (the particle runs' case)
@@ -909,12 +931,11 @@ impl DensityGrid {
         aligned.then(|| base.as_ivec3())
     }
 
-    /// The distance at `p` where its block alone bounds it: in a deep block, and where no
-    /// particle reaches the 3³ blocks around, the distance to the neighbourhood's edge.
-    fn bound_by_blocks(&self, p: Vec3) -> Option<f32> {
-        let u = p / self.dx;
-        let c = floor_ivec3(u) >> 3;
-        match self.block(c) {
+    /// The distance at `u` (node units) where its block `c` (`home`) alone bounds it: in
+    /// a deep block, and where no particle reaches the 3³ blocks around, the distance to
+    /// the neighbourhood's edge.
+    fn bound_by_block(&self, c: IVec3, u: Vec3, home: Option<&Block>) -> Option<f32> {
+        match home {
             Some(block) if block.deep => Some(-depth_in_neighbourhood(c, u) * self.dx),
             None if AROUND.iter().all(|&d| self.block(c + d).is_none()) => {
                 Some(depth_in_neighbourhood(c, u) * self.dx)
