@@ -521,7 +521,13 @@ fn give_back_broad_moves<P: Potential>(
     for axis in [0usize, 1, 2] {
         let runs = runs_along(grid, axis);
         for _ in 0..boxes {
-            box_along(grid, &mut sums, (&runs, axis), reach);
+            // The axis a constant of each pass: its nodes' offsets are then computed
+            // without a branch (the axis' match cost a fifth of the passes).
+            match axis {
+                0 => box_along::<P, 0>(grid, &mut sums, &runs, reach),
+                1 => box_along::<P, 1>(grid, &mut sums, &runs, reach),
+                _ => box_along::<P, 2>(grid, &mut sums, &runs, reach),
+            }
         }
     }
     grid.blocks_mut()
@@ -585,12 +591,12 @@ struct SharedSums(*mut Sums);
 // run), so the runs filtered in parallel never touch the same block's sums.
 unsafe impl Sync for SharedSums {}
 
-/// One box filter of 2·`reach` + 1 nodes (reach ≤ 8) along `axis`, in place, over the
+/// One box filter of 2·`reach` + 1 nodes (reach ≤ 8) along `AXIS`, in place, over the
 /// `runs` of blocks along it; nodes beyond the band hold none.
-fn box_along<P: Potential>(
+fn box_along<P: Potential, const AXIS: usize>(
     grid: &SparseGrid<P>,
     sums: &mut [Sums],
-    (runs, axis): (&[Vec<usize>], usize),
+    runs: &[Vec<usize>],
     reach: i32,
 ) {
     const D: usize = BLOCK_DIM as usize;
@@ -611,7 +617,7 @@ fn box_along<P: Potential>(
             for v in 0..BLOCK_DIM {
                 let at = |t: usize| {
                     let t = t as i32;
-                    match axis {
+                    match AXIS {
                         0 => node_offset(t, u, v),
                         1 => node_offset(u, t, v),
                         _ => node_offset(u, v, t),
