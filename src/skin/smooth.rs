@@ -522,7 +522,7 @@ fn give_back_broad_moves<P: Potential>(
         let runs = runs_along(grid, axis);
         for _ in 0..boxes {
             // The axis a constant of each pass: its nodes' offsets are then computed
-            // without a branch (the axis' match cost a fifth of the passes).
+            // without a branch (matched per node, 8 % of the give-back's instructions).
             match axis {
                 0 => box_along::<P, 0>(grid, &mut sums, &runs, reach),
                 1 => box_along::<P, 1>(grid, &mut sums, &runs, reach),
