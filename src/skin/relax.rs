@@ -132,17 +132,40 @@ impl<P: Potential> Surface for OnGrid<'_, P> {
     fn normal(&self, probe: &mut Probe, home: Vec3, p: Vec3) -> Option<Vec3> {
         self.gather(probe, home);
         let Cell { lower, t } = self.cell(p);
-        let gradient: Vec3 = (0..8)
-            .map(|n| {
-                let c = corner(n).as_vec3();
-                let w = c * t + (Vec3::ONE - c) * (Vec3::ONE - t);
-                let ijk = lower + corner(n);
-                let central = |e: IVec3| self.node(probe, ijk + e) - self.node(probe, ijk - e);
-                w.x * w.y * w.z * Vec3::new(central(IVec3::X), central(IVec3::Y), central(IVec3::Z))
-            })
-            .sum();
+        // The 4³ nodes the corners' central differences read, from the probe's halo with
+        // no test a node where it holds them all, as it nearly always does (tested a node,
+        // the normals cost 2 % of a particle run's instructions).
+        let held = probe
+            .block
+            .map(|coord| lower - coord * BLOCK_DIM)
+            .filter(|l| l.min_element() >= -1 && l.max_element() < BLOCK_DIM);
+        let gradient = match held {
+            Some(l) => {
+                let values = &probe.halo.values;
+                interpolated_gradient(t, |n| {
+                    let m = l + n;
+                    values[WideHalo::index(m.x, m.y, m.z)]
+                })
+            }
+            None => interpolated_gradient(t, |n| self.node(probe, lower + n)),
+        };
         gradient.try_normalize()
     }
+}
+
+/// The central differences at a cell's corners, interpolated at `t` in it; `at(n)` the
+/// potential at node n from the cell's lower node.
+#[inline(always)]
+fn interpolated_gradient(t: Vec3, at: impl Fn(IVec3) -> f32) -> Vec3 {
+    (0..8)
+        .map(|n| {
+            let c = corner(n).as_vec3();
+            let w = c * t + (Vec3::ONE - c) * (Vec3::ONE - t);
+            let k = corner(n);
+            let central = |e: IVec3| at(k + e) - at(k - e);
+            w.x * w.y * w.z * Vec3::new(central(IVec3::X), central(IVec3::Y), central(IVec3::Z))
+        })
+        .sum()
 }
 
 /// Corner `n` of a cell (z fastest).
