@@ -597,8 +597,8 @@ impl DensityGrid {
         p: Vec3,
         at: impl Fn(&Block, usize) -> [f32; N],
     ) -> [f32; N] {
-        let u = p / self.dx;
-        self.interpolate_near(u, self.block(floor_ivec3(u) >> 3), at)
+        let (u, _, home) = self.locate(p);
+        self.interpolate_near(u, home, at)
     }
 
     /// [`DensityGrid::interpolate`] at `u` (node units), `home` the block `u` lies in
@@ -855,9 +855,7 @@ impl Target for DensityGrid {
     fn distance(&self, p: Vec3) -> f32 {
         // The block `p` lies in, looked up once for the bound and the interpolation (a
         // skin's attraction reads the distance at its mesh's vertices every sub-step).
-        let u = p / self.dx;
-        let c = floor_ivec3(u) >> 3;
-        let home = self.block(c);
+        let (u, c, home) = self.locate(p);
         if let Some(bound) = self.bound_by_block(c, u, home) {
             return bound;
         }
@@ -870,9 +868,7 @@ impl Target for DensityGrid {
     /// The density alone against the iso: [`Target::distance`]'s sign without its
     /// gradient.
     fn inside(&self, p: Vec3) -> bool {
-        let u = p / self.dx;
-        let c = floor_ivec3(u) >> 3;
-        let home = self.block(c);
+        let (u, c, home) = self.locate(p);
         match self.bound_by_block(c, u, home) {
             Some(bound) => bound < 0.0,
             None => self.interpolate_near(u, home, |b, o| [b.g(o)])[0] > self.iso,
@@ -929,6 +925,14 @@ impl DensityGrid {
         let aligned = (dx - self.dx).abs() <= 1e-6 * self.dx
             && (corner - base * self.dx).abs().max_element() <= 1e-4 * self.dx;
         aligned.then(|| base.as_ivec3())
+    }
+
+    /// `p` in node units, its block's coordinate and that block, if stored.
+    #[inline]
+    fn locate(&self, p: Vec3) -> (Vec3, IVec3, Option<&Block>) {
+        let u = p / self.dx;
+        let c = floor_ivec3(u) >> 3;
+        (u, c, self.block(c))
     }
 
     /// The distance at `u` (node units) where its block `c` (`home`) alone bounds it: in
