@@ -205,6 +205,11 @@ struct Measured {
     outside: Vec<f64>,
     noise: Vec<f64>,
     flicker: Vec<f64>,
+    /// Per frame: the flicker's part that moves the whole surface in or out at once (the
+    /// median of the vertices' second differences, unsigned), and what is left with it
+    /// taken away (the flicker of each place on its own).
+    flicker_uniform: Vec<f64>,
+    flicker_local: Vec<f64>,
     /// Per frame: particle-scale bumps (degrees, [`look::bumps`]), pieces holding liquid
     /// ([`look::pieces`]), and
     /// the median thickness of single-layer sheets in particle radii (NaN without any).
@@ -256,7 +261,7 @@ fn measure(meshes: &[Mesh], clouds: &[Vec<Vec3>], r: f32, dx: f32) -> anyhow::Re
             sum / count.max(1) as f64 / f64::from(dx)
         })
         .collect();
-    let flicker = (1..meshes.len().saturating_sub(1))
+    let flickers: Vec<Flicker> = (1..meshes.len().saturating_sub(1))
         .map(|n| {
             flicker(
                 &meshes[n],
@@ -292,11 +297,23 @@ fn measure(meshes: &[Mesh], clouds: &[Vec<Vec3>], r: f32, dx: f32) -> anyhow::Re
         volume,
         outside,
         noise,
-        flicker,
+        flicker: flickers.iter().map(|f| f.all).collect(),
+        flicker_uniform: flickers.iter().map(|f| f.uniform).collect(),
+        flicker_local: flickers.iter().map(|f| f.local).collect(),
         bumps,
         pieces,
         sheets,
     })
+}
+
+/// One frame's flicker (voxels): the mean of its vertices' unsigned second differences,
+/// the median of the signed ones unsigned (the whole surface moved in or out at once),
+/// and the mean of what each differs from that median by.
+#[derive(Clone, Copy, Debug, Default)]
+struct Flicker {
+    all: f64,
+    uniform: f64,
+    local: f64,
 }
 
 /// The surface's own flicker at frame n, followed along the liquid (voxels): each vertex
@@ -312,9 +329,9 @@ fn flicker(
     clouds: &[Vec<Vec3>],
     r: f32,
     dx: f32,
-) -> f64 {
+) -> Flicker {
     let [before, now, after] = clouds else {
-        return 0.0;
+        return Flicker::default();
     };
     let k = before.len().min(now.len()).min(after.len());
     let support = 2.0 * DEFAULT_SMOOTHING_LENGTH * r;
@@ -323,17 +340,23 @@ fn flicker(
         Density::new(now[..k].to_vec(), support, 0.0).with_velocities(&steps)
     };
     let (back, ahead) = (moved(before), moved(after));
-    let (sum, count) = mesh
+    let signed: Vec<f64> = mesh
         .positions
         .par_iter()
         .filter(|&&x| back.density(x) > 0.0)
         .map(|&x| {
             let d = around[0].distance(x + back.velocity(x))
                 + around[1].distance(x + ahead.velocity(x));
-            (f64::from(0.5 * d).abs(), 1usize)
+            f64::from(0.5 * d / dx)
         })
-        .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-    sum / count.max(1) as f64 / f64::from(dx)
+        .collect();
+    let shift = median(&signed);
+    let unsigned = |by: f64| mean(&signed.iter().map(|d| (d - by).abs()).collect::<Vec<_>>());
+    Flicker {
+        all: unsigned(0.0),
+        uniform: shift.abs(),
+        local: unsigned(shift),
+    }
 }
 
 fn range(values: &[f64]) -> (f64, f64) {
@@ -447,6 +470,8 @@ fn look_of(m: &Measured, run: &RangeInclusive<usize>, seconds: f64) -> serde_jso
            "sheet_radii": (!sheets.is_empty()).then(|| median(&sheets)),
            "outside_fraction": range(&m.outside).1,
            "flicker_voxels": mean(&m.flicker), "noise_voxels": mean(&m.noise),
+           "flicker_uniform_voxels": mean(&m.flicker_uniform),
+           "flicker_local_voxels": mean(&m.flicker_local),
            "seconds": seconds, "bumps_degrees": m.bumps, "pieces": m.pieces})
 }
 
@@ -462,7 +487,7 @@ fn looks(
         [ours, raw, smoothed].map(|t| t.map(|(m, s)| look_of(m, &shot.run, s)));
     let say = |who: &str, l: &serde_json::Value| {
         format!(
-            "{who} bumps {:.2}° / {:.2}°, pieces {:.1}, sheets {}, {:.2} % > r outside, flicker {:.3}, noise {:.3}, {:.1} s",
+            "{who} bumps {:.2}° / {:.2}°, pieces {:.1}, sheets {}, {:.2} % > r outside, flicker {:.3} (uniform {:.3}, local {:.3}), noise {:.3}, {:.1} s",
             l["bumps_wave_degrees"].as_f64().unwrap_or(f64::NAN),
             l["bumps_slosh_degrees"].as_f64().unwrap_or(f64::NAN),
             l["pieces_slosh"].as_f64().unwrap_or(f64::NAN),
@@ -471,6 +496,8 @@ fn looks(
                 .map_or("none".to_string(), |t| format!("{t:.2} r")),
             100.0 * l["outside_fraction"].as_f64().unwrap_or(f64::NAN),
             l["flicker_voxels"].as_f64().unwrap_or(f64::NAN),
+            l["flicker_uniform_voxels"].as_f64().unwrap_or(f64::NAN),
+            l["flicker_local_voxels"].as_f64().unwrap_or(f64::NAN),
             l["noise_voxels"].as_f64().unwrap_or(f64::NAN),
             l["seconds"].as_f64().unwrap_or(f64::NAN),
         )
@@ -502,8 +529,9 @@ fn looks(
         ratio("seconds"),
     ) {
         line += &format!(
-            "   against smoothed splashsurf: bumps {w:.2}× / {s:.2}×, pieces {p:.2}×, flicker {:.2}×, noise {:.2}×, time {t:.2}×",
+            "   against smoothed splashsurf: bumps {w:.2}× / {s:.2}×, pieces {p:.2}×, flicker {:.2}× (local {:.2}×), noise {:.2}×, time {t:.2}×",
             ratio("flicker_voxels").unwrap_or(f64::NAN),
+            ratio("flicker_local_voxels").unwrap_or(f64::NAN),
             ratio("noise_voxels").unwrap_or(f64::NAN),
         );
     }
@@ -876,7 +904,8 @@ fn race_on(
         json!({"ms_per_frame": per_frame(seconds), "volume_ratio": m.volume,
                "outside_fraction": m.outside, "noise_voxels": m.noise,
                "noise_mean_voxels": mean(&m.noise), "flicker_voxels": m.flicker,
-               "flicker_mean_voxels": mean(&m.flicker)})
+               "flicker_mean_voxels": mean(&m.flicker),
+               "flicker_uniform_voxels": m.flicker_uniform, "flicker_local_voxels": m.flicker_local})
     };
     report.insert(
         shot.key.clone(),
@@ -1007,5 +1036,15 @@ mod tests {
         assert!((0.3..0.5).contains(&noise), "{:?}", wobbly.noise);
         let flicker = mean(&wobbly.flicker);
         assert!((0.3..0.5).contains(&flicker), "{:?}", wobbly.flicker);
+        // All of it moves the whole sphere in and out: uniform, none of it local.
+        let uniform = mean(&wobbly.flicker_uniform);
+        assert!(
+            (0.3..0.5).contains(&uniform),
+            "{:?}",
+            wobbly.flicker_uniform
+        );
+        let local = mean(&wobbly.flicker_local);
+        assert!(local < 0.25 * flicker, "{:?}", wobbly.flicker_local);
+        assert!(mean(&steady.flicker_uniform) < 0.02);
     }
 }
