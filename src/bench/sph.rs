@@ -351,7 +351,8 @@ fn flicker(
         })
         .collect();
     let shift = median(&signed);
-    let unsigned = |by: f64| mean(&signed.iter().map(|d| (d - by).abs()).collect::<Vec<_>>());
+    let unsigned =
+        |by: f64| signed.iter().map(|d| (d - by).abs()).sum::<f64>() / signed.len().max(1) as f64;
     Flicker {
         all: unsigned(0.0),
         uniform: shift.abs(),
